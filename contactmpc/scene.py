@@ -1,0 +1,245 @@
+"""Scene composition: one ``MjSpec`` (hand + task) compiled into the plant and the planning model.
+
+The plant runs at a fine physics step (paper: 1 ms); the planning model used for rollouts is the same
+model compiled at the agent timestep (paper: 10 ms). Everything else is identical. All MuJoCo names
+the rest of the library needs are resolved to ids and array addresses once, here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from contactmpc.hands.allegro import AllegroHand
+from contactmpc.tasks.base import Task
+
+
+class SceneError(RuntimeError):
+    """A scene that cannot be built or compiled; the message is one line naming the task."""
+
+
+@dataclass(frozen=True)
+class SceneIndex:
+    """Ids and addresses resolved once from names (identical in the plant and planning models).
+
+    Attributes:
+        hand_qpos: (22,) qpos addresses of the hand joints, in the hand's joint order.
+        hand_dof: (22,) qvel addresses of the hand joints.
+        actuators: (22,) actuator ids, in the hand's joint order.
+        object_qpos: (n_o,) qpos addresses of ``q_o``.
+        object_dof: (nv_o,) qvel addresses of the object joints.
+        link_bodies: (L,) body ids of the hand's contact links.
+        link_pos: (L, 3) sensordata addresses of each link's world position.
+        link_quat: (L, 4) sensordata addresses of each link's world orientation (w x y z).
+        object_bodies: (B,) body ids of the task's object bodies.
+        object_pos: (B, 3) sensordata addresses of each object body's world position.
+        object_quat: (B, 4) sensordata addresses of each object body's world orientation.
+        object_geom_mask: (ngeom,) True for geoms that belong to the object (object bodies and
+            their descendants).
+        link_of_geom: (ngeom,) index into the links of the hand link owning each geom, -1 if none.
+    """
+
+    hand_qpos: np.ndarray
+    hand_dof: np.ndarray
+    actuators: np.ndarray
+    object_qpos: np.ndarray
+    object_dof: np.ndarray
+    link_bodies: np.ndarray
+    link_pos: np.ndarray
+    link_quat: np.ndarray
+    object_bodies: np.ndarray
+    object_pos: np.ndarray
+    object_quat: np.ndarray
+    object_geom_mask: np.ndarray
+    link_of_geom: np.ndarray
+
+
+def _id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str, what: str) -> int:
+    i = mujoco.mj_name2id(model, kind, name)
+    if i < 0:
+        raise SceneError(f"{what} {name!r} not found in the compiled scene")
+    return i
+
+
+def _sensor_adr(model: mujoco.MjModel, name: str, width: int) -> np.ndarray:
+    sid = _id(model, mujoco.mjtObj.mjOBJ_SENSOR, name, "sensor")
+    adr = model.sensor_adr[sid]
+    return np.arange(adr, adr + width)
+
+
+class Scene:
+    """A hand and a task composed into the plant model and the planning model.
+
+    Args:
+        hand: the hand builder.
+        task: the task (fixtures, objects, ``q_o``).
+        plant_timestep: physics step of the plant (s); paper 1 ms.
+        planner_timestep: physics step of the planning model (s); paper 10 ms.
+        integrator: MuJoCo integrator name (``implicitfast`` suits damped position servos).
+        cone: friction cone, ``elliptic`` or ``pyramidal``.
+        impratio: frictional-to-normal impedance ratio (higher resists slip in grasps).
+        hand_root: (3,) world position of the wrist's zero.
+
+    Raises:
+        SceneError: if the scene does not compile or a name does not resolve.
+    """
+
+    def __init__(
+        self,
+        hand: AllegroHand,
+        task: Task,
+        plant_timestep: float = 0.001,
+        planner_timestep: float = 0.01,
+        integrator: str = "implicitfast",
+        cone: str = "elliptic",
+        impratio: float = 10.0,
+        hand_root: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    ) -> None:
+        if not 0 < plant_timestep <= planner_timestep:
+            raise SceneError(
+                f"timesteps must satisfy 0 < plant ({plant_timestep}) <= planner ({planner_timestep})"
+            )
+        self.hand = hand
+        self.task = task
+        self.plant_timestep = plant_timestep
+        self.planner_timestep = planner_timestep
+        self.spec = mujoco.MjSpec()
+        self.spec.modelname = f"{task.name}_{hand.name}"
+        self.spec.compiler.degree = False  # every angle in this project is in radians
+        opt = self.spec.option
+        try:
+            opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+            opt.cone = getattr(mujoco.mjtCone, f"mjCONE_{cone.upper()}")
+        except AttributeError as err:
+            raise SceneError(f"unknown integrator {integrator!r} or cone {cone!r}") from err
+        opt.impratio = impratio
+        self.spec.visual.global_.offwidth = 1280
+        self.spec.visual.global_.offheight = 960
+        self.spec.visual.quality.shadowsize = 4096
+        self._add_look()
+        self.spec.worldbody.add_light(
+            name="key", pos=[0.4, -0.8, 1.6], dir=[-0.3, 0.5, -1.0], diffuse=[0.8, 0.8, 0.8], castshadow=True
+        )
+        self.spec.worldbody.add_light(
+            name="fill", pos=[-0.6, 0.6, 1.2], dir=[0.4, -0.4, -1.0], diffuse=[0.3] * 3
+        )
+        try:
+            hand.add_to(self.spec, root_pos=hand_root)
+            task.add_to(self.spec)
+            self.plant_model = self._compile(plant_timestep)
+            self.planner_model = self._compile(planner_timestep)
+        except SceneError:
+            raise
+        except Exception as err:  # MjSpec raises ValueError for compile errors
+            msg = " ".join(str(err).split())
+            raise SceneError(f"task {task.name!r}: scene failed to compile: {msg}") from err
+        self.index = self._resolve(self.plant_model)
+
+    def _add_look(self) -> None:
+        """Skybox and a checkered floor material (``floor_mat``) that tasks may use."""
+        self.spec.add_texture(
+            name="sky",
+            type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+            builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+            rgb1=[0.75, 0.82, 0.90],
+            rgb2=[0.25, 0.28, 0.33],
+            width=256,
+            height=256,
+        )
+        self.spec.add_texture(
+            name="floor_tex",
+            type=mujoco.mjtTexture.mjTEXTURE_2D,
+            builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+            rgb1=[0.32, 0.34, 0.37],
+            rgb2=[0.26, 0.28, 0.30],
+            width=256,
+            height=256,
+        )
+        mat = self.spec.add_material(name="floor_mat", texrepeat=[6, 6], reflectance=0.1)
+        mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "floor_tex"
+
+    def _compile(self, timestep: float) -> mujoco.MjModel:
+        self.spec.option.timestep = timestep
+        return self.spec.compile()
+
+    def _resolve(self, m: mujoco.MjModel) -> SceneIndex:
+        jid = [_id(m, mujoco.mjtObj.mjOBJ_JOINT, n, "hand joint") for n in self.hand.joint_names]
+        links = [_id(m, mujoco.mjtObj.mjOBJ_BODY, n, "hand link") for n in self.hand.link_names]
+        obj = [_id(m, mujoco.mjtObj.mjOBJ_BODY, n, "object body") for n in self.task.object_bodies]
+        # Object bodies and their descendants (e.g. the door's bolt) count as "the object".
+        is_object = np.zeros(m.nbody, bool)
+        is_object[obj] = True
+        for b in range(1, m.nbody):  # parents precede children in MuJoCo's body order
+            is_object[b] |= is_object[m.body_parentid[b]]
+        link_index = -np.ones(m.nbody, int)
+        link_index[links] = np.arange(len(links))
+        return SceneIndex(
+            hand_qpos=m.jnt_qposadr[jid].copy(),
+            hand_dof=m.jnt_dofadr[jid].copy(),
+            actuators=np.array(
+                [_id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n, "actuator") for n in self.hand.actuator_names]
+            ),
+            object_qpos=self.task.qo_qpos_indices(m),
+            object_dof=self.task.qo_dof_indices(m),
+            link_bodies=np.asarray(links),
+            link_pos=np.stack([_sensor_adr(m, f"{n}_pos", 3) for n in self.hand.link_names]),
+            link_quat=np.stack([_sensor_adr(m, f"{n}_quat", 4) for n in self.hand.link_names]),
+            object_bodies=np.asarray(obj),
+            object_pos=np.stack([_sensor_adr(m, f"{n}_pos", 3) for n in self.task.object_bodies]),
+            object_quat=np.stack([_sensor_adr(m, f"{n}_quat", 4) for n in self.task.object_bodies]),
+            object_geom_mask=is_object[m.geom_bodyid],
+            link_of_geom=link_index[m.geom_bodyid],
+        )
+
+    # --- state ---------------------------------------------------------------------------------
+    def reset(
+        self,
+        data: mujoco.MjData,
+        hand_qpos: np.ndarray | None = None,
+        object_qpos: np.ndarray | None = None,
+    ) -> None:
+        """Put ``data`` at rest in a configuration, with the servos holding the hand there.
+
+        Args:
+            data: data of the plant or the planning model.
+            hand_qpos: (22,) hand configuration; defaults to the task's ``hand_home``.
+            object_qpos: (n_o,) object configuration; defaults to the task's initial one.
+        """
+        m = data.model
+        mujoco.mj_resetData(m, data)
+        hq = self.task.hand_home if hand_qpos is None else np.asarray(hand_qpos, float)
+        oq = self.task.initial_object_qpos(m) if object_qpos is None else np.asarray(object_qpos, float)
+        data.qpos[self.index.hand_qpos] = hq
+        data.qpos[self.index.object_qpos] = oq
+        data.ctrl[self.index.actuators] = hq
+        mujoco.mj_forward(m, data)
+
+    def make_data(self, model: mujoco.MjModel | None = None) -> mujoco.MjData:
+        """A fresh ``MjData`` of ``model`` (default: the plant), reset to the task's initial state."""
+        data = mujoco.MjData(self.plant_model if model is None else model)
+        self.reset(data)
+        return data
+
+    def hand_qpos(self, data: mujoco.MjData) -> np.ndarray:
+        """(22,) the hand configuration of ``data``."""
+        return data.qpos[self.index.hand_qpos].copy()
+
+    def object_qpos(self, data: mujoco.MjData) -> np.ndarray:
+        """(n_o,) the object configuration ``q_o`` of ``data``."""
+        return data.qpos[self.index.object_qpos].copy()
+
+    def link_contacts(self, data: mujoco.MjData) -> np.ndarray:
+        """(L,) bool: which hand links touch the object (any object body) in ``data``."""
+        touching = np.zeros(len(self.index.link_bodies), bool)
+        if data.ncon == 0:
+            return touching
+        g1, g2 = data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon]
+        dist = data.contact.dist[: data.ncon]
+        live = dist <= 0.0
+        idx = self.index
+        for ga, gb in ((g1, g2), (g2, g1)):
+            hit = live & idx.object_geom_mask[gb] & (idx.link_of_geom[ga] >= 0)
+            touching[idx.link_of_geom[ga[hit]]] = True
+        return touching
