@@ -21,8 +21,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import hydra  # noqa: E402
 from hydra.core.config_store import ConfigStore  # noqa: E402
+from hydra.core.hydra_config import HydraConfig  # noqa: E402
 from hydra.utils import instantiate  # noqa: E402
-from omegaconf import DictConfig  # noqa: E402
+from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
 from contactmpc.config import SCHEMAS  # noqa: E402
 
@@ -48,10 +49,20 @@ def build_scene(cfg: DictConfig):
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def main(cfg: DictConfig) -> object:
+    choices = HydraConfig.get().runtime.choices
+    labels = {
+        g: choices.get(g) for g in ("task", "hand", "cost", "sampler", "planner", "preset", "experiment")
+    }
     try:
         scene = build_scene(cfg)
         job = instantiate(cfg.job)
-        result = job(scene=scene, output_dir=Path(cfg.output_dir), seed=cfg.seed)
+        result = job(
+            scene=scene,
+            output_dir=Path(cfg.output_dir),
+            seed=cfg.seed,
+            config=OmegaConf.to_container(cfg, resolve=True),
+            labels=labels,
+        )
     except (ValueError, RuntimeError, OSError) as err:
         # Library errors are one line that names the problem (field, task, file).
         print(f"contactmpc: error: {' '.join(str(err).split())}", file=sys.stderr)

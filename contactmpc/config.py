@@ -145,6 +145,43 @@ class PlannerConf:
     nthread: int | None = None
 
 
+@dataclass
+class MPPIConf(PlannerConf):
+    temperature: float = 0.1
+
+
+@dataclass
+class CEMConf(PlannerConf):
+    num_elites: int = 8
+    min_std_ratio: float = 0.1
+    max_std_ratio: float = 1.0
+
+
+# ----------------------------------------------------------------------------------------- jobs
+
+
+@dataclass
+class TrialJobConf:
+    _target_: str = "contactmpc.jobs.run_trial"
+    _partial_: bool = True
+    sampler: Any = "${sampler}"
+    cost: Any = "${cost}"
+    planner: Any = "${planner}"
+    num_control_points: int | None = None
+    duration: float | None = "${duration}"
+    progress: bool = True
+    failure_gap: float = 0.3
+    failure_min_expected: int = 6
+    reference_cache: str | None = "outputs/cache/references"
+
+
+@dataclass
+class RenderSceneJobConf:
+    _target_: str = "contactmpc.render.render_scene"
+    _partial_: bool = True
+    size: list[int] = field(default_factory=lambda: [480, 640])
+
+
 # ----------------------------------------------------------------------------------------- root
 
 
@@ -156,6 +193,7 @@ class Config:
     sampler: Any = None
     planner: Any = None
     job: Any = None
+    preset: Any = None
     experiment: Any = None
     scene: SceneConf = field(default_factory=SceneConf)
     seed: int = 0
@@ -174,4 +212,8 @@ SCHEMAS: tuple[tuple[str | None, str, type], ...] = (
     ("cost", "cost_schema", CostConf),
     ("sampler", "sampler_schema", SamplerConf),
     ("planner", "planner_schema", PlannerConf),
+    ("planner", "mppi_schema", MPPIConf),
+    ("planner", "cem_schema", CEMConf),
+    ("job", "trial_schema", TrialJobConf),
+    ("job", "render_scene_schema", RenderSceneJobConf),
 )

@@ -36,6 +36,11 @@ class SceneIndex:
         object_bodies: (B,) body ids of the task's object bodies.
         object_pos: (B, 3) sensordata addresses of each object body's world position.
         object_quat: (B, 4) sensordata addresses of each object body's world orientation.
+        object_joint_pos: (A,) sensordata addresses of the object's articulation angles (hinge/slide
+            joints of ``q_o``, in ``q_o`` order).
+        hand_vel: (22,) sensordata addresses of the hand joint velocities.
+        object_qo: (n_o,) sensordata addresses that read ``q_o`` directly: a free joint's body
+            position and quaternion, then articulation angles, in ``q_o`` order.
         object_geom_mask: (ngeom,) True for geoms that belong to the object (object bodies and
             their descendants).
         link_of_geom: (ngeom,) index into the links of the hand link owning each geom, -1 if none.
@@ -52,6 +57,9 @@ class SceneIndex:
     object_bodies: np.ndarray
     object_pos: np.ndarray
     object_quat: np.ndarray
+    object_joint_pos: np.ndarray
+    hand_vel: np.ndarray
+    object_qo: np.ndarray
     object_geom_mask: np.ndarray
     link_of_geom: np.ndarray
 
@@ -127,6 +135,13 @@ class Scene:
         )
         try:
             hand.add_to(self.spec, root_pos=hand_root)
+            for joint in hand.joint_names:  # hand velocities for the cost, vectorised over rollouts
+                self.spec.add_sensor(
+                    name=f"{joint}_vel",
+                    type=mujoco.mjtSensor.mjSENS_JOINTVEL,
+                    objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                    objname=joint,
+                )
             task.add_to(self.spec)
             self.plant_model = self._compile(plant_timestep)
             self.planner_model = self._compile(planner_timestep)
@@ -189,9 +204,27 @@ class Scene:
             object_bodies=np.asarray(obj),
             object_pos=np.stack([_sensor_adr(m, f"{n}_pos", 3) for n in self.task.object_bodies]),
             object_quat=np.stack([_sensor_adr(m, f"{n}_quat", 4) for n in self.task.object_bodies]),
+            object_joint_pos=np.asarray(
+                [_sensor_adr(m, f"{j.name}_pos", 1)[0] for j in self.task.object_joints if j.kind != "free"],
+                dtype=int,
+            ),
+            hand_vel=np.concatenate([_sensor_adr(m, f"{n}_vel", 1) for n in self.hand.joint_names]),
+            object_qo=self._qo_sensors(m),
             object_geom_mask=is_object[m.geom_bodyid],
             link_of_geom=link_index[m.geom_bodyid],
         )
+
+    def _qo_sensors(self, m: mujoco.MjModel) -> np.ndarray:
+        adr = []
+        for j in self.task.object_joints:
+            if j.kind == "free":
+                jid = _id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name, "object joint")
+                body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, m.jnt_bodyid[jid])
+                adr.extend(_sensor_adr(m, f"{body}_pos", 3))
+                adr.extend(_sensor_adr(m, f"{body}_quat", 4))
+            else:
+                adr.extend(_sensor_adr(m, f"{j.name}_pos", 1))
+        return np.asarray(adr, dtype=int)
 
     # --- state ---------------------------------------------------------------------------------
     def reset(

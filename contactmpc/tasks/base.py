@@ -113,6 +113,15 @@ class Task:
                 objname=body,
             )
 
+        for j in self.object_joints:
+            if j.kind != "free":  # articulation angles come back in sensordata as well
+                spec.add_sensor(
+                    name=f"{j.name}_pos",
+                    type=mujoco.mjtSensor.mjSENS_JOINTPOS,
+                    objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                    objname=j.name,
+                )
+
     def add_objects(self, spec: mujoco.MjSpec) -> None:
         """Add fixtures and object bodies (with the joints of ``object_joints``) to ``spec``."""
         raise NotImplementedError

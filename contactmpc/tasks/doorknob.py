@@ -32,12 +32,14 @@ class DoorknobTask(Task):
         unlock_angle: knob angle at which the bolt is fully retracted (rad).
         bolt_throw: how far the bolt protrudes from the door edge (m).
         play: free travel of the latched bolt before it meets the strike (m).
+        door_damping: door hinge damping (N m s / rad).
         **kwargs: see :class:`~contactmpc.tasks.base.Task`.
     """
 
     name = "doorknob"
     object_joints = (ObjectJoint("door_hinge", "hinge"), ObjectJoint("knob_hinge", "hinge"))
     object_bodies = ("knob", "door")
+    BOLT_FRICTION = 0.3  # sliding friction of the latch bolt on its strike (greased metal)
     view = {"lookat": (-0.15, -0.1, 0.38), "distance": 0.85, "azimuth": 60.0, "elevation": -15.0}
 
     def __init__(
@@ -152,6 +154,10 @@ class DoorknobTask(Task):
             size=[self.bolt_throw / 2, bolt_half_t, 0.01],
             mass=0.02,
             rgba=brass,
+            # Greased metal latch on its strike: low friction, and priority makes this friction (not
+            # the max with the frame's) apply, so a twisted knob can retract a loaded bolt.
+            friction=[self.BOLT_FRICTION, 0.005, 0.0001],
+            priority=1,
         )
         # Knob: on a rose and shaft on the hand's side of the door, turning about the door normal.
         knob_x = w - self.knob_offset
@@ -174,7 +180,9 @@ class DoorknobTask(Task):
             stiffness=self.knob_stiffness,
             springref=0.0,
             damping=0.02,
-            armature=0.001,
+            # Inertia of the knob's spindle and latch mechanism. With a bare 1e-3 the knob is so light
+            # that it dominates the latch equality's impedance and the latch cannot hold the bolt.
+            armature=0.005,
         )
         knob.add_geom(
             name="knob_shaft",
@@ -216,4 +224,10 @@ class DoorknobTask(Task):
         coef = np.zeros(5)
         coef[1] = -self.bolt_throw / self.unlock_angle
         eq.data[: len(coef)] = coef
+        # Near-hard coupling. The default impedance (0.9-0.95) makes the regulariser ~1/20 of the
+        # summed inverse weights of bolt and knob, so the latch passed ~1 N at 2 cm of violation:
+        # a knob turned to its stop left the bolt in the strike. timeconst stays at 0.02 s (stable at
+        # the 10 ms planning step).
+        eq.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
+        eq.solref = [0.02, 1.0]
         spec.add_exclude(bodyname1="door", bodyname2="knob")

@@ -1,0 +1,1 @@
+"""The controller: sampler spaces, cost, rollout engine, planners."""

@@ -1,0 +1,195 @@
+"""The paper's running cost (Eq. 2), vectorised over (samples, horizon).
+
+.. math::
+    l(x_t) = \\lambda_o \\|\\hat q_o(t) - q_o(t)\\|^2 + \\lambda_c \\sum_{l \\in A(t)}
+             \\|c_l(q_a(t)) - c_l(q_o(t))\\|^2 + \\lambda_v \\|\\dot q_a(t)\\|^2
+
+The object distance is ``|dp|^2 + w_rot * angle^2 + w_art * |d angles|^2``; the contact term sums,
+over the links whose contact is expected at that reference time, the squared world-frame distance
+between the link's contact point and the corresponding point on the object. Every input comes
+from the rollout's ``sensordata``, so no Python runs per simulated step.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from contactmpc.control.track import ReferenceTrack
+from contactmpc.scene import Scene
+
+
+def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors by unit quaternions (w x y z), broadcasting over leading axes.
+
+    Args:
+        q: (..., 4) unit quaternions.
+        v: (..., 3) vectors.
+
+    Returns:
+        (..., 3) rotated vectors.
+    """
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+@numba.njit(cache=True, parallel=True)
+def _contact_sq_dist(
+    sd, steps, link_pos, link_quat, obj_pos, obj_quat, link_pt, obj_pt, out
+):  # pragma: no cover
+    """Accumulate ``|p_l + R(q_l) a - (p_o + R(q_o) b)|^2`` per (sample, step) over expected pairs.
+
+    Args:
+        sd: (S, H, nsensordata) rollout sensors.
+        steps: (P,) step of each expected (step, link) pair.
+        link_pos, link_quat: (P, 3), (P, 4) sensordata addresses of the pair's link pose.
+        obj_pos, obj_quat: (P, 3), (P, 4) sensordata addresses of the pair's object-body pose.
+        link_pt, obj_pt: (P, 3) link-local and object-local points.
+        out: (S, H) accumulator.
+    """
+    for s in numba.prange(sd.shape[0]):
+        for p in range(steps.shape[0]):
+            h = steps[p]
+            acc = 0.0
+            xs = np.empty(3)
+            for side in range(2):
+                pa = link_pos[p] if side == 0 else obj_pos[p]
+                qa = link_quat[p] if side == 0 else obj_quat[p]
+                v = link_pt[p] if side == 0 else obj_pt[p]
+                w, x, y, z = sd[s, h, qa[0]], sd[s, h, qa[1]], sd[s, h, qa[2]], sd[s, h, qa[3]]
+                tx = 2.0 * (y * v[2] - z * v[1])
+                ty = 2.0 * (z * v[0] - x * v[2])
+                tz = 2.0 * (x * v[1] - y * v[0])
+                px = sd[s, h, pa[0]] + v[0] + w * tx + (y * tz - z * ty)
+                py = sd[s, h, pa[1]] + v[1] + w * ty + (z * tx - x * tz)
+                pz = sd[s, h, pa[2]] + v[2] + w * tz + (x * ty - y * tx)
+                if side == 0:
+                    xs[0], xs[1], xs[2] = px, py, pz
+                else:
+                    acc = (xs[0] - px) ** 2 + (xs[1] - py) ** 2 + (xs[2] - pz) ** 2
+            out[s, h] += acc
+
+
+def as_index(adr: np.ndarray) -> slice | np.ndarray:
+    """A slice for a run of consecutive addresses (a view, no copy), else the addresses themselves."""
+    adr = np.asarray(adr)
+    if adr.size and np.array_equal(adr, np.arange(adr[0], adr[0] + adr.size)):
+        return slice(int(adr[0]), int(adr[0]) + adr.size)
+    return adr
+
+
+class TrackingCost:
+    """Object tracking + contact correspondence + hand velocity, with separately logged terms.
+
+    Args:
+        lambda_o: weight of the object term.
+        lambda_c: weight of the contact term (0 = the paper's ``object_only`` ablation).
+        lambda_v: weight of the hand-velocity term.
+        rotation_weight: weight of the squared orientation angle (rad^2) against position (m^2).
+        articulation_weight: weight of squared articulation errors (rad^2).
+    """
+
+    terms = ("object", "contact", "velocity")
+
+    def __init__(
+        self,
+        lambda_o: float = 1.0,
+        lambda_c: float = 1.0,
+        lambda_v: float = 0.01,
+        rotation_weight: float = 0.1,
+        articulation_weight: float = 1.0,
+    ) -> None:
+        self.lambda_o = float(lambda_o)
+        self.lambda_c = float(lambda_c)
+        self.lambda_v = float(lambda_v)
+        self.rotation_weight = float(rotation_weight)
+        self.articulation_weight = float(articulation_weight)
+        self.scene: Scene | None = None
+        self.track: ReferenceTrack | None = None
+
+    def bind(self, scene: Scene, track: ReferenceTrack) -> None:
+        """Attach the scene (sensor addresses, object layout) and the reference track."""
+        self.scene = scene
+        self.track = track
+        self._qo = as_index(scene.index.object_qo)
+        self._vel = as_index(scene.index.hand_vel)
+
+    def object_qpos(self, sensordata: np.ndarray) -> np.ndarray:
+        """(..., n_o) the object configuration read from sensordata (..., nsensordata)."""
+        return sensordata[..., self._qo]
+
+    def contact_points(self, sensordata: np.ndarray, window: slice) -> tuple[np.ndarray, np.ndarray]:
+        """World positions of the expected link points and their object points.
+
+        Args:
+            sensordata: (..., H, nsensordata) with H equal to the window's length.
+            window: grid slice of the reference track.
+
+        Returns:
+            link points and object points, each (..., H, L, 3).
+        """
+        idx, tr = self.scene.index, self.track
+        link_p = sensordata[..., idx.link_pos]  # (..., H, L, 3)
+        link_q = sensordata[..., idx.link_quat]  # (..., H, L, 4)
+        body = tr.contact_object_body[window]  # (H, L)
+        obj_p = sensordata[..., idx.object_pos][..., np.arange(body.shape[0])[:, None], body, :]
+        obj_q = sensordata[..., idx.object_quat][..., np.arange(body.shape[0])[:, None], body, :]
+        xl = link_p + quat_rotate(link_q, tr.contact_link_point[window])
+        xo = obj_p + quat_rotate(obj_q, tr.contact_object_point[window])
+        return xl, xo
+
+    def contact_term(self, sensordata: np.ndarray, window: slice) -> np.ndarray:
+        """Unweighted contact term: summed squared distances of the expected pairs.
+
+        Equal to ``sum_l active * |xl - xo|^2`` with :meth:`contact_points`, computed by a compiled
+        kernel over the expected (step, link) pairs only.
+
+        Args:
+            sensordata: (S, H, nsensordata) with H equal to the window's length.
+            window: grid slice of the reference track.
+
+        Returns:
+            (S, H) contact term.
+        """
+        idx, tr = self.scene.index, self.track
+        out = np.zeros(sensordata.shape[:2])
+        h, link = np.nonzero(tr.contact_active[window])
+        if h.size == 0:
+            return out
+        body = tr.contact_object_body[window][h, link]
+        _contact_sq_dist(
+            np.ascontiguousarray(sensordata),
+            h,
+            idx.link_pos[link],
+            idx.link_quat[link],
+            idx.object_pos[body],
+            idx.object_quat[body],
+            tr.contact_link_point[window][h, link],
+            tr.contact_object_point[window][h, link],
+            out,
+        )
+        return out
+
+    def __call__(self, sensordata: np.ndarray, window: slice) -> dict[str, np.ndarray]:
+        """Weighted cost terms per sample and step.
+
+        Args:
+            sensordata: (S, H, nsensordata) rollout sensors; row h is the state after h steps.
+            window: the reference-track slice of the same H steps.
+
+        Returns:
+            dict of the weighted terms ``object``, ``contact``, ``velocity``, each (S, H).
+        """
+        tr = self.track
+        err = self.scene.task.object_error(self.object_qpos(sensordata), tr.object_qpos[window])
+        obj = err.position**2 + self.rotation_weight * err.rotation**2
+        obj = obj + self.articulation_weight * err.articulation**2
+        v = sensordata[..., self._vel]
+        vel = np.einsum("shi,shi->sh", v, v)
+        con = self.contact_term(sensordata, window) if self.lambda_c > 0.0 else np.zeros_like(obj)
+        return {
+            "object": self.lambda_o * obj,
+            "contact": self.lambda_c * con,
+            "velocity": self.lambda_v * vel,
+        }

@@ -1,0 +1,202 @@
+"""The sampling-planner loop shared by every planner.
+
+A planner implements two methods, :meth:`Planner.sample` (candidate control points around the
+nominal) and :meth:`Planner.update` (the new nominal from scored candidates). The base class owns
+everything else: the spline window, warm start (the committed control points persist between
+replans), mapping control points to clipped joint targets, the batched rollout, and scoring.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from contactmpc.control.cost import TrackingCost, as_index
+from contactmpc.control.rollout import RolloutEngine
+from contactmpc.control.samplers import SplineSpace
+from contactmpc.control.track import ReferenceTrack
+from contactmpc.reference.bspline import UniformBSpline
+from contactmpc.scene import Scene
+
+
+@dataclass
+class PlanInfo:
+    """What one planning iteration did.
+
+    Attributes:
+        time: control time at which it planned (s).
+        nominal_cost: cumulative cost of the unperturbed nominal (sample 0), or NaN without rollouts.
+        best_cost: lowest cumulative cost among the samples (NaN without rollouts).
+        terms: cumulative cost terms of the committed (best) sample, by name.
+        num_diverged: samples whose rollout diverged.
+        window: (Mw,) indices of the control points that could change.
+        seconds: wall time of the iteration.
+    """
+
+    time: float
+    nominal_cost: float = float("nan")
+    best_cost: float = float("nan")
+    terms: dict[str, float] = field(default_factory=dict)
+    num_diverged: int = 0
+    window: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    seconds: float = 0.0
+
+
+class Planner:
+    """Base class of the sampling planners.
+
+    Args:
+        num_samples: rollouts per planning iteration (sample 0 is the nominal).
+        horizon: planning horizon (s).
+        replan_period: control time between planning iterations (s).
+        nthread: rollout threads; ``None`` = all cores.
+    """
+
+    needs_rollouts = True
+
+    def __init__(
+        self,
+        num_samples: int = 128,
+        horizon: float = 2.5,
+        replan_period: float = 0.01,
+        nthread: int | None = None,
+    ) -> None:
+        if num_samples < 1 or horizon <= 0 or replan_period <= 0:
+            raise ValueError(
+                f"planner needs num_samples >= 1, horizon > 0, replan_period > 0; got "
+                f"{num_samples}, {horizon}, {replan_period}"
+            )
+        self.num_samples = int(num_samples)
+        self.horizon = float(horizon)
+        self.replan_period = float(replan_period)
+        self.nthread = nthread
+        self.engine: RolloutEngine | None = None
+
+    # --- the two methods a planner implements ------------------------------------------------
+    def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
+        """Candidate control points around the nominal.
+
+        Args:
+            rng: the trial's random generator.
+            nominal: (Mw, d) nominal control points of the window.
+            window: (Mw,) their indices among the M control points.
+
+        Returns:
+            (S, Mw, d) candidates.
+        """
+        raise NotImplementedError
+
+    def update(self, candidates: np.ndarray, costs: np.ndarray, window: np.ndarray) -> np.ndarray:
+        """The new nominal of the window from scored candidates.
+
+        Args:
+            candidates: (S, Mw, d) the sampled control points.
+            costs: (S,) cumulative costs (``inf`` for diverged rollouts).
+            window: (Mw,) indices of the window's control points.
+
+        Returns:
+            (Mw, d) the control points to commit.
+        """
+        raise NotImplementedError
+
+    # --- the loop ------------------------------------------------------------------------------
+    def bind(
+        self,
+        scene: Scene,
+        track: ReferenceTrack,
+        space: SplineSpace,
+        cost: TrackingCost,
+        spline: UniformBSpline,
+        theta: np.ndarray,
+    ) -> None:
+        """Attach the problem: scene, reference track, sampler space, cost, spline, nominal (M, d)."""
+        self.scene, self.track, self.space, self.cost, self.spline = scene, track, space, cost, spline
+        self.theta = np.array(theta, dtype=float)
+        self.dt = scene.planner_model.opt.timestep
+        self.steps = max(1, int(round(self.horizon / self.dt)))
+        self.noise_std = space.noise_std
+        self._basis_cache: dict[int, np.ndarray] = {}
+        self._actuators = as_index(scene.index.actuators)
+        if self.needs_rollouts and self.engine is None:
+            self.engine = RolloutEngine(scene.planner_model, self.nthread)
+
+    def close(self) -> None:
+        """Release the rollout threads."""
+        if self.engine is not None:
+            self.engine.close()
+            self.engine = None
+
+    def basis(self, t: float) -> np.ndarray:
+        """(H, M) spline basis over the horizon starting at grid time ``t`` (cached per grid index)."""
+        i = self.track.index(t)
+        if i not in self._basis_cache:
+            times = (i + np.arange(self.steps)) * self.dt
+            self._basis_cache[i] = self.spline.basis(times)
+        return self._basis_cache[i]
+
+    def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
+        """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M)."""
+        u = self.space.controls(theta, basis)
+        nu = self.scene.planner_model.nu
+        if self._actuators == slice(0, nu):
+            return u
+        ctrl = np.zeros(u.shape[:-1] + (nu,))
+        ctrl[..., self._actuators] = u
+        return ctrl
+
+    def evaluate(
+        self, state: np.ndarray, t: float, thetas: np.ndarray
+    ) -> tuple[np.ndarray, dict, np.ndarray]:
+        """Roll out full control-point sets and score them.
+
+        Args:
+            state: (nstate,) full-physics initial state.
+            t: control time of ``state``.
+            thetas: (S, M, d) control points.
+
+        Returns:
+            total: (S,) cumulative cost (``inf`` where diverged); terms: name -> (S,) cumulative;
+            diverged: (S,) bool.
+        """
+        ctrl = self.controls(thetas, self.basis(t))
+        _, sensordata, diverged = self.engine.run(state, ctrl)
+        window = self.track.window(t, self.steps)
+        n = window.stop - window.start
+        terms = {k: v.sum(axis=-1) for k, v in self.cost(sensordata[:, :n], window).items()}
+        total = sum(terms.values())
+        total = np.where(diverged | ~np.isfinite(total), np.inf, total)
+        return total, terms, diverged
+
+    def plan(self, t: float, state: np.ndarray, rng: np.random.Generator) -> PlanInfo:
+        """One planning iteration at control time ``t`` from the plant's state; commits the result.
+
+        Args:
+            t: control time (s).
+            state: (nstate,) full-physics state of the plant.
+            rng: the trial's random generator.
+        """
+        start = time.perf_counter()
+        window = self.spline.window_indices(t, self.horizon)
+        info = PlanInfo(time=t, window=window)
+        if not self.needs_rollouts:
+            info.seconds = time.perf_counter() - start
+            return info
+        candidates = self.sample(rng, self.theta[window], window)
+        thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
+        thetas[:, window] = candidates
+        total, terms, diverged = self.evaluate(state, t, thetas)
+        best = int(np.argmin(total))
+        self.theta[window] = self.update(candidates, total, window)
+        info.nominal_cost = float(total[0])
+        info.best_cost = float(total[best])
+        info.terms = {k: float(v[best]) for k, v in terms.items()}
+        info.num_diverged = int(diverged.sum())
+        info.seconds = time.perf_counter() - start
+        return info
+
+    def gaussian(self, rng: np.random.Generator, nominal: np.ndarray, std: np.ndarray) -> np.ndarray:
+        """(S, Mw, d) samples: row 0 the nominal, the rest ``nominal + std * N(0, 1)``."""
+        noise = rng.standard_normal((self.num_samples - 1,) + nominal.shape) * std
+        return np.concatenate([nominal[None], nominal[None] + noise], axis=0)

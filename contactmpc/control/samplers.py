@@ -1,0 +1,151 @@
+"""Sampler spaces: the coordinates in which control points are perturbed.
+
+Both spaces describe the hand's 22 joint targets by ``M`` B-spline control points over the control
+time of the slowed reference. A space's decision variable ``theta`` has shape (M, d): the first six
+columns are the wrist (root) DOFs in joint space; the remaining ``d - 6`` columns are the finger
+coordinates of the space:
+
+- :class:`PCASplineSpace` (the paper): finger control points in the coordinates of the principal
+  components of the reference finger curves, ``u = P^T z + p`` (Eq. 3). With ``whiten`` the PC
+  coordinates are divided by each component's spread over the reference, so noise of a given sigma
+  moves each synergy in proportion to how much it moves in the demonstration.
+- :class:`JointSplineSpace` (the paper's ablation): finger control points in joint space.
+
+Because a clamped B-spline's basis functions sum to one and the PC map is affine, mapping control
+points through ``P^T z + p`` is exact: the curve of the mapped points is the mapped curve.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from contactmpc.reference.bspline import UniformBSpline
+from contactmpc.reference.pca import PCABasis
+
+NUM_ROOT = 6
+
+
+class SplineSpace:
+    """Base class: B-spline control points of root + finger coordinates.
+
+    Args:
+        sigma2: noise variance on every finger coordinate (PC or joint), in the space's units.
+        root_sigma2: noise variance on the six root (wrist) DOFs; the paper uses 0.
+        whiten: divide PC coordinates by their spread over the reference (PCA space only).
+        num_components: number of PCs kept (PCA space only); ``None`` keeps all 16.
+    """
+
+    def __init__(
+        self,
+        sigma2: float,
+        root_sigma2: float = 0.0,
+        whiten: bool = False,
+        num_components: int | None = None,
+    ) -> None:
+        if sigma2 < 0 or root_sigma2 < 0:
+            raise ValueError(
+                f"sampler variances must be >= 0, got sigma2={sigma2}, root_sigma2={root_sigma2}"
+            )
+        self.sigma2 = float(sigma2)
+        self.root_sigma2 = float(root_sigma2)
+        self.whiten = bool(whiten)
+        self.num_components = num_components
+        self.spline: UniformBSpline | None = None
+        self.ranges: np.ndarray | None = None
+
+    # --- set-up -------------------------------------------------------------------------------
+    def bind(
+        self, spline: UniformBSpline, times: np.ndarray, hand_qpos: np.ndarray, ranges: np.ndarray
+    ) -> np.ndarray:
+        """Fit the space to the reference and return the nominal control points.
+
+        Args:
+            spline: the B-spline over control time.
+            times: (T,) control times of the reference frames.
+            hand_qpos: (T, 22) reference hand configurations.
+            ranges: (22, 2) actuator control ranges; joint targets are clipped to them.
+
+        Returns:
+            (M, d) nominal control points ``theta``.
+        """
+        self.spline = spline
+        self.ranges = np.asarray(ranges, float)
+        root_cp = spline.fit(times, hand_qpos[:, :NUM_ROOT])
+        finger_cp = self._bind_fingers(spline, times, hand_qpos[:, NUM_ROOT:])
+        return np.concatenate([root_cp, finger_cp], axis=-1)
+
+    def _bind_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
+        """Map finger coordinates (..., d - 6) to finger joint values (..., 16)."""
+        raise NotImplementedError
+
+    @property
+    def dim(self) -> int:
+        """Number of columns ``d`` of ``theta``."""
+        raise NotImplementedError
+
+    @property
+    def noise_std(self) -> np.ndarray:
+        """(d,) standard deviation of the sampling noise per column of ``theta``."""
+        std = np.full(self.dim, np.sqrt(self.sigma2))
+        std[:NUM_ROOT] = np.sqrt(self.root_sigma2)
+        return std
+
+    # --- evaluation ---------------------------------------------------------------------------
+    def joint_control_points(self, theta: np.ndarray) -> np.ndarray:
+        """Control points in joint space.
+
+        Args:
+            theta: (..., M, d) control points of this space.
+
+        Returns:
+            (..., M, 22) joint-space control points.
+        """
+        return np.concatenate([theta[..., :NUM_ROOT], self.finger_joints(theta[..., NUM_ROOT:])], axis=-1)
+
+    def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
+        """Joint targets from control points through a precomputed basis.
+
+        Args:
+            theta: (..., M, d) control points.
+            basis: (H, M) B-spline basis at the H query times (``spline.basis(times)``).
+
+        Returns:
+            (..., H, 22) joint targets, clipped to the actuators' ranges.
+        """
+        u = basis @ self.joint_control_points(theta)
+        return np.clip(u, self.ranges[:, 0], self.ranges[:, 1], out=u)
+
+
+class JointSplineSpace(SplineSpace):
+    """Finger control points in joint space (the paper's ablation, sigma^2 = 60 deg per DOF)."""
+
+    def _bind_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+        return spline.fit(times, fingers)
+
+    def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
+        return finger_theta
+
+    @property
+    def dim(self) -> int:
+        return NUM_ROOT + 16
+
+
+class PCASplineSpace(SplineSpace):
+    """Finger control points in the principal components of the reference finger curves (paper)."""
+
+    pca: PCABasis
+
+    def _bind_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+        self.pca = PCABasis.fit(fingers, num_components=self.num_components, whiten=self.whiten)
+        # PC-curves fitted with the same M (paper §II-A).
+        return spline.fit(times, self.pca.to_pc(fingers))
+
+    def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
+        return self.pca.from_pc(finger_theta)
+
+    @property
+    def dim(self) -> int:
+        return NUM_ROOT + self.pca.num_components

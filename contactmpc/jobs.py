@@ -1,0 +1,119 @@
+"""Jobs that ``launch.py`` runs on a composed scene. Each is built by Hydra (``conf/job/``) as a partial
+and called with ``scene``, ``output_dir``, ``seed`` and ``config`` (the resolved config, for records).
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from contactmpc.control.cost import TrackingCost
+from contactmpc.control.planners.base import Planner
+from contactmpc.control.samplers import SplineSpace
+from contactmpc.metrics import time_to_failure
+from contactmpc.records import RECORD_NAME, SERIES_NAME, git_revision, versions, write_json, write_series
+from contactmpc.reference.source import get_reference
+from contactmpc.scene import Scene
+from contactmpc.trial import Trial
+
+
+def run_trial(
+    scene: Scene,
+    output_dir: str | Path,
+    seed: int,
+    sampler: SplineSpace,
+    cost: TrackingCost,
+    planner: Planner,
+    num_control_points: int | None = None,
+    duration: float | None = None,
+    progress: bool = True,
+    failure_gap: float = 0.3,
+    failure_min_expected: int = 6,
+    reference_cache: str | None = "outputs/cache/references",
+    config: dict | None = None,
+    labels: dict | None = None,
+) -> Path:
+    """Run one closed-loop trial and write its record (``trial.json`` + ``timeseries.npz``).
+
+    The record is written whatever happens: a trial that raises gets ``status`` ``"error"`` (or
+    ``"diverged"``) and the reason, and the exception is re-raised after the record is on disk.
+
+    Args:
+        scene: the composed scene.
+        output_dir: the run directory.
+        seed: the trial's seed.
+        sampler: sampler space (PCA or joint splines).
+        cost: running cost.
+        planner: planner.
+        num_control_points: M; ``None`` = the reference's suggestion.
+        duration: control time to simulate; ``None`` = the slowed reference.
+        progress: show a progress bar.
+        failure_gap: TTF rule: seconds without any contact (paper 0.3).
+        failure_min_expected: TTF rule: needs more than this many expected contacts (paper 6).
+        reference_cache: directory caching synthesised references (``None`` disables).
+        config: the resolved config, stored in the record.
+        labels: names of the config choices (task, hand, cost, sampler, planner) for the record.
+
+    Returns:
+        Path of ``trial.json``.
+    """
+    out = Path(output_dir)
+    record: dict = {"schema": 1, **(labels or {}), "seed": int(seed), "status": "running"}
+    record["versions"] = versions()
+    record["git_revision"] = git_revision()
+    wall0 = time.perf_counter()
+    try:
+        reference = get_reference(scene, reference_cache)
+        trial = Trial(scene, reference, sampler, cost, planner, seed, num_control_points, duration, progress)
+        try:
+            log = trial.run()
+        finally:
+            planner.close()
+        series = log.arrays()
+        wall = time.perf_counter() - wall0
+        record.update(summarize(series, trial, wall, failure_gap, failure_min_expected))
+        record["status"] = "ok"
+        write_series(out / SERIES_NAME, series)
+    except Exception as err:
+        record["status"] = "diverged" if type(err).__name__ == "PlantDiverged" else "error"
+        record["error"] = f"{type(err).__name__}: {' '.join(str(err).split())}"
+        record["traceback"] = traceback.format_exc(limit=8)
+        record["wall_seconds"] = time.perf_counter() - wall0
+        record["config"] = config
+        write_json(out / RECORD_NAME, record)
+        raise
+    record["config"] = config
+    return write_json(out / RECORD_NAME, record)
+
+
+def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected: int) -> dict:
+    """Flat summary fields of a finished trial's log."""
+    ttf = time_to_failure(series["time"], series["contacts"], series["expected_contacts"], gap, min_expected)
+    plan = series["plan_seconds"]
+    sim = float(trial.duration)
+    final_err = trial.scene.task.object_error(series["object_qpos"][-1], trial.track.object_qpos[-1])
+    return {
+        "ttf": ttf.ttf,
+        "failed": ttf.failed,
+        "failure_time": ttf.failure_time,
+        "contact_span_start": None if ttf.span is None else ttf.span[0],
+        "contact_span_end": None if ttf.span is None else ttf.span[1],
+        "object_position_error_mean": float(np.mean(series["object_position_error"])),
+        "object_rotation_error_mean": float(np.mean(series["object_rotation_error"])),
+        "object_articulation_error_mean": float(np.mean(series["object_articulation_error"])),
+        "final_object_position_error": float(final_err.position),
+        "final_object_rotation_error": float(final_err.rotation),
+        "final_object_articulation_error": float(final_err.articulation),
+        "contact_fraction": float(np.mean(series["contacts"].any(axis=-1))),
+        "plan_seconds_mean": float(np.mean(plan)),
+        "plan_seconds_p95": float(np.percentile(plan, 95)),
+        "simulated_seconds": sim,
+        "wall_seconds": wall,
+        "real_time_factor": sim / wall if wall > 0 else None,
+        "num_control_points": trial.spline.num_control_points,
+        "num_plans": int(len(plan)),
+        "diverged_rollouts": int(np.sum(series["num_diverged"])),
+    }

@@ -1,0 +1,78 @@
+"""Trial metrics: the paper's time-to-failure (TTF) and tracking summaries.
+
+TTF (paper §III-A): a trial fails when the hand touches the object nowhere for ``gap`` seconds
+(300 ms) while more than ``min_expected`` (six) expected contacts exist at every instant of that
+time. TTF is the fraction of the span between the first and the last instants with any expected
+contact that passed before the failure, 1.0 if it never fails. The failure time reported is the
+instant the hand lost its last contact, i.e. the start of the failing gap (the trial is *declared*
+failed ``gap`` seconds later).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TTFResult:
+    """Outcome of the contact monitor.
+
+    Attributes:
+        ttf: fraction in [0, 1] of the contact span that passed before failure (1.0: no failure).
+        failed: whether the failure rule fired.
+        failure_time: start of the failing gap (s), or ``None``.
+        span: (first, last) instants with any expected contact (s), or ``None`` if there are none.
+    """
+
+    ttf: float
+    failed: bool
+    failure_time: float | None
+    span: tuple[float, float] | None
+
+
+def time_to_failure(
+    time: np.ndarray,
+    contacts: np.ndarray,
+    expected: np.ndarray,
+    gap: float = 0.3,
+    min_expected: int = 6,
+) -> TTFResult:
+    """Apply the paper's failure rule to a contact log.
+
+    Args:
+        time: (N,) increasing sample times (s), uniformly or non-uniformly spaced.
+        contacts: (N, L) bool, links actually touching the object.
+        expected: (N, L) bool, links expected in contact by the reference.
+        gap: how long the hand must touch nothing (s); the paper's 300 ms.
+        min_expected: the rule needs strictly more than this many expected contacts throughout.
+
+    Returns:
+        The :class:`TTFResult`.
+    """
+    time = np.asarray(time, float)
+    touching = np.asarray(contacts, bool).any(axis=-1)
+    n_expected = np.asarray(expected, bool).sum(axis=-1)
+    any_expected = n_expected > 0
+    if not any_expected.any():
+        return TTFResult(1.0, False, None, None)
+    first, last = time[np.argmax(any_expected)], time[len(time) - 1 - np.argmax(any_expected[::-1])]
+    eligible = ~touching & (n_expected > min_expected)
+    start = None
+    failure = None
+    for i in range(len(time)):
+        if eligible[i]:
+            if start is None:
+                start = i
+            # Samples are instants: a gap starting at start is at least time[i] - time[start] long.
+            if time[i] - time[start] >= gap - 1e-9:
+                failure = float(time[start])
+                break
+        else:
+            start = None
+    if failure is None:
+        return TTFResult(1.0, False, None, (float(first), float(last)))
+    span = last - first
+    ttf = 1.0 if span <= 0 else float(np.clip((failure - first) / span, 0.0, 1.0))
+    return TTFResult(ttf, True, failure, (float(first), float(last)))

@@ -1,0 +1,90 @@
+"""Trial records: one flat ``trial.json`` plus a compact per-step time series, written atomically."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import tempfile
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+RECORD_NAME = "trial.json"
+SERIES_NAME = "timeseries.npz"
+SCHEMA_VERSION = 1
+
+
+def _atomic_write(path: Path, write) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.generic):
+        x = x.item()
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return x
+
+
+def write_json(path: str | Path, record: dict) -> Path:
+    """Write ``record`` as JSON atomically (temp file + rename); NaN/inf become null."""
+    path = Path(path)
+    data = json.dumps(_jsonable(record), indent=2, sort_keys=False).encode()
+    _atomic_write(path, lambda f: f.write(data))
+    return path
+
+
+def write_series(path: str | Path, arrays: dict[str, np.ndarray]) -> Path:
+    """Write a per-step time series as a compressed ``.npz`` atomically."""
+    path = Path(path)
+    _atomic_write(path, lambda f: np.savez_compressed(f, **arrays))
+    return path
+
+
+def versions() -> dict[str, str]:
+    """Versions of the packages a record depends on."""
+    out = {}
+    for name in ("contactmpc", "mujoco", "numpy", "scipy", "hydra-core", "omegaconf", "numba"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def git_revision(cwd: str | Path | None = None) -> str | None:
+    """The git revision of the source tree (``+dirty`` if modified), or ``None`` outside git."""
+    cwd = Path(cwd or Path(__file__).resolve().parent)
+    try:
+        rev = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=cwd, capture_output=True, text=True, timeout=5, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=cwd,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        ).stdout.strip()
+        return rev + ("+dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return None

@@ -1,0 +1,178 @@
+"""The closed loop: plant stepping at 1 ms, replanning every ``replan_period``, logging.
+
+Synchronous and seeded: at every replan time the planner runs on the plant's current state, then
+the plant advances with joint targets from the committed splines evaluated at every physics step.
+The same scene, reference, config and seed give the same log, bit for bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+from tqdm.auto import tqdm
+
+from contactmpc.control.cost import TrackingCost
+from contactmpc.control.planners.base import Planner
+from contactmpc.control.samplers import SplineSpace
+from contactmpc.control.track import ReferenceTrack
+from contactmpc.reference.bspline import UniformBSpline
+from contactmpc.reference.data import Reference
+from contactmpc.scene import Scene
+
+
+class PlantDiverged(RuntimeError):
+    """The plant simulation went unstable (MuJoCo warning or non-finite state)."""
+
+
+@dataclass
+class TrialLog:
+    """Per-step log of a trial, one row per replan period.
+
+    Attributes:
+        time: (N,) control time (s).
+        hand_qpos: (N, 22) plant hand configuration.
+        hand_target: (N, 22) joint targets sent to the actuators.
+        object_qpos: (N, n_o) plant object configuration.
+        expected_object_qpos: (N, n_o) reference object configuration at that time.
+        contacts: (N, L) links touching the object.
+        expected_contacts: (N, L) links expected in contact by the reference.
+        object_position_error / object_rotation_error / object_articulation_error: (N,).
+        cost_object / cost_contact / cost_velocity: (N,) cumulative terms of the committed sample.
+        plan_seconds: (N,) wall time of the planning iteration.
+        num_diverged: (N,) diverged rollouts of the iteration.
+    """
+
+    columns: dict[str, list] = field(default_factory=dict)
+
+    def append(self, **row) -> None:
+        for k, v in row.items():
+            self.columns.setdefault(k, []).append(np.array(v, copy=True))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The log as a dict of stacked arrays."""
+        return {k: np.stack(v) for k, v in self.columns.items()}
+
+
+class Trial:
+    """One closed-loop trial of a planner on a task.
+
+    Args:
+        scene: the composed hand + task.
+        reference: the demonstration (validated).
+        space: the sampler space.
+        cost: the running cost.
+        planner: the planner.
+        seed: seed of the trial's random generator.
+        num_control_points: control points per curve M; ``None`` takes ``reference.meta``'s
+            suggestion (``num_control_points``) or 4 per second of slowed reference.
+        duration: simulated control time (s); ``None`` = the slowed reference's duration.
+        progress: show a progress bar.
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        reference: Reference,
+        space: SplineSpace,
+        cost: TrackingCost,
+        planner: Planner,
+        seed: int,
+        num_control_points: int | None = None,
+        duration: float | None = None,
+        progress: bool = True,
+    ) -> None:
+        self.scene, self.reference, self.space, self.cost, self.planner = (
+            scene,
+            reference,
+            space,
+            cost,
+            planner,
+        )
+        self.seed = int(seed)
+        self.progress = progress
+        task = scene.task
+        padding = planner.horizon + max(0.0, (duration or 0.0) - reference.duration * task.time_scale) + 0.1
+        self.track = ReferenceTrack.build(
+            reference, task.object_joints, task.time_scale, scene.planner_timestep, padding
+        )
+        self.duration = float(self.track.duration if duration is None else duration)
+        if num_control_points is None:
+            num_control_points = reference.meta.get("num_control_points") or max(
+                8, int(round(4 * self.track.duration))
+            )
+        self.spline = UniformBSpline(int(num_control_points), (0.0, self.track.duration))
+        ranges = scene.plant_model.actuator_ctrlrange[scene.index.actuators]
+        theta0 = space.bind(self.spline, self.track.hand_times, reference.hand_qpos, ranges)
+        cost.bind(scene, self.track)
+        planner.bind(scene, self.track, space, cost, self.spline, theta0)
+
+    def run(self) -> TrialLog:
+        """Simulate the closed loop for ``duration`` seconds of control time.
+
+        Returns:
+            The per-replan log.
+
+        Raises:
+            PlantDiverged: if the plant becomes unstable.
+        """
+        scene, planner = self.scene, self.planner
+        m = scene.plant_model
+        d = mujoco.MjData(m)
+        rng = np.random.default_rng(self.seed)
+        idx = scene.index
+        dt = m.opt.timestep
+        per_plan = max(1, int(round(planner.replan_period / dt)))
+        n_steps = int(round(self.duration / dt))
+        hand0 = self.space.controls(planner.theta, self.spline.basis(np.array([0.0])))[0]
+        scene.reset(d, hand_qpos=hand0, object_qpos=self.reference.object_qpos[0])
+        nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        state = np.empty(nstate)
+        log = TrialLog()
+        offsets = np.arange(per_plan) * dt
+        bar = tqdm(
+            total=n_steps, desc=f"{scene.task.name}", unit="step", disable=not self.progress, leave=False
+        )
+        try:
+            for k in range(0, n_steps, per_plan):
+                t = k * dt
+                mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+                state[0] = t  # rollouts run on the control clock
+                info = planner.plan(t, state, rng)
+                targets = self.space.controls(planner.theta, self.spline.basis(t + offsets))
+                self._log(log, d, t, targets[0], info)
+                for j in range(min(per_plan, n_steps - k)):
+                    d.ctrl[idx.actuators] = targets[j]
+                    mujoco.mj_step(m, d)
+                if any(w.number for w in d.warning) or not np.isfinite(d.qpos).all():
+                    raise PlantDiverged(f"plant diverged at t={d.time:.3f}s")
+                bar.update(min(per_plan, n_steps - k))
+        finally:
+            bar.close()
+        return log
+
+    def _log(self, log: TrialLog, d: mujoco.MjData, t: float, target: np.ndarray, info) -> None:
+        scene, tr = self.scene, self.track
+        i = tr.index(t)
+        qo = scene.object_qpos(d)
+        err = scene.task.object_error(qo, tr.object_qpos[i])
+        log.append(
+            time=t,
+            hand_qpos=scene.hand_qpos(d),
+            hand_target=target,
+            object_qpos=qo,
+            expected_object_qpos=tr.object_qpos[i],
+            contacts=scene.link_contacts(d),
+            expected_contacts=tr.contact_active[i],
+            object_position_error=err.position,
+            object_rotation_error=err.rotation,
+            object_articulation_error=err.articulation,
+            cost_object=info.terms.get("object", np.nan),
+            cost_contact=info.terms.get("contact", np.nan),
+            cost_velocity=info.terms.get("velocity", np.nan),
+            best_cost=info.best_cost,
+            nominal_cost=info.nominal_cost,
+            plan_seconds=info.seconds,
+            num_diverged=info.num_diverged,
+        )

@@ -1,0 +1,111 @@
+"""Test helpers: a simple hand-made reference for a scene, and a toy point-mass planning problem."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import mujoco
+import numpy as np
+
+from contactmpc.control.rollout import RolloutEngine
+from contactmpc.reference import Reference
+from contactmpc.reference.bspline import UniformBSpline
+
+
+def static_reference(scene, duration: float = 1.0, frames: int = 26, active_links: int = 8) -> Reference:
+    """A reference that holds the object still while the fingers flex a little.
+
+    The first ``active_links`` links expect contact at their origins with the object's origin, so the
+    contact term is non-zero and varies with the hand.
+    """
+    hand = scene.hand
+    t = np.linspace(0.0, duration, frames)
+    hq = np.tile(scene.task.hand_home, (frames, 1))
+    hq[:, 6:] += 0.3 * np.sin(np.pi * t / duration)[:, None] * np.linspace(0.2, 1.0, 16)
+    hq[:, 6:] = np.clip(hq[:, 6:], hand.joint_ranges[6:, 0], hand.joint_ranges[6:, 1])
+    qo = np.tile(scene.task.initial_object_qpos(scene.plant_model), (frames, 1))
+    L = len(hand.link_names)
+    active = np.zeros((frames, L), bool)
+    active[:, :active_links] = True
+    quat = next((i for i, j in enumerate(_columns(scene.task)) if j == "free"), None)
+    return Reference(
+        time=t,
+        hand_qpos=hq,
+        object_qpos=qo,
+        contact_active=active,
+        contact_link_point=np.zeros((frames, L, 3)),
+        contact_object_point=np.zeros((frames, L, 3)),
+        contact_object_body=np.zeros((frames, L), np.int64),
+        link_names=np.array(hand.link_names),
+        joint_names=np.array(hand.joint_names),
+        object_bodies=np.array(scene.task.object_bodies),
+        task=scene.task.name,
+        meta={"source": "test", "object_quat_index": None if quat is None else quat + 3},
+    )
+
+
+def _columns(task):
+    """Kind of each q_o block's first column (free blocks start with their position)."""
+    out = []
+    for j in task.object_joints:
+        out.extend([j.kind] + [""] * ((7 if j.kind == "free" else 1) - 1))
+    return out
+
+
+POINT_MASS = """
+<mujoco>
+  <option timestep="0.01"/>
+  <worldbody>
+    <body name="mass">
+      <joint name="x" type="slide" axis="1 0 0" damping="2"/>
+      <joint name="y" type="slide" axis="0 1 0" damping="2"/>
+      <geom type="sphere" size="0.02" mass="0.1"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <position joint="x" kp="20" ctrlrange="-1 1"/>
+    <position joint="y" kp="20" ctrlrange="-1 1"/>
+  </actuator>
+  <sensor><framepos objtype="body" objname="mass"/></sensor>
+</mujoco>
+"""
+
+
+class PointMassProblem:
+    """A toy planning problem: spline targets for a damped point mass that should reach ``goal``.
+
+    It offers the attributes the planner base class uses (duck-typed scene, track, space, cost).
+    """
+
+    def __init__(self, goal=(0.3, -0.2), horizon: float = 1.0, sigma: float = 0.3, num_points: int = 6):
+        model = mujoco.MjModel.from_xml_string(POINT_MASS)
+        self.model = model
+        self.goal = np.asarray(goal)
+        self.scene = SimpleNamespace(planner_model=model, index=SimpleNamespace(actuators=np.arange(2)))
+        self.spline = UniformBSpline(num_points, (0.0, horizon))
+        steps = int(round(horizon / model.opt.timestep))
+        self.track = SimpleNamespace(
+            index=lambda t: int(round(t / model.opt.timestep)),
+            window=lambda t, n: slice(0, n),
+        )
+        ranges = model.actuator_ctrlrange.copy()
+        self.space = SimpleNamespace(
+            noise_std=np.full(2, sigma),
+            controls=lambda theta, basis: np.clip(basis @ theta, ranges[:, 0], ranges[:, 1]),
+        )
+        self.cost = lambda sd, window: {"goal": np.sum((sd[..., :2] - self.goal) ** 2, axis=-1)}
+        self.steps = steps
+        data = mujoco.MjData(model)
+        self.state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+        mujoco.mj_getState(model, data, self.state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        self.engine = RolloutEngine(model, nthread=1)
+
+    def bind(self, planner) -> None:
+        planner.engine = self.engine
+        planner.bind(self.scene, self.track, self.space, self.cost, self.spline, np.zeros((6, 2)))
+
+    def final_distance(self, planner) -> float:
+        """Distance to the goal at the end of the horizon, rolling out the committed nominal."""
+        ctrl = planner.controls(planner.theta[None], planner.basis(0.0))
+        _, sd, _ = self.engine.run(self.state, ctrl)
+        return float(np.linalg.norm(sd[0, -1, :2] - self.goal))
