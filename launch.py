@@ -12,6 +12,8 @@ problem, and the process exits with status 1.
 
 from __future__ import annotations
 
+import functools
+import json
 import logging
 import os
 import sys
@@ -22,10 +24,15 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import hydra  # noqa: E402
 from hydra.core.config_store import ConfigStore  # noqa: E402
 from hydra.core.hydra_config import HydraConfig  # noqa: E402
+from hydra.types import RunMode  # noqa: E402
 from hydra.utils import instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
 from contactmpc.config import SCHEMAS  # noqa: E402
+from contactmpc.records import RECORD_NAME  # noqa: E402
+
+LABELS = ("task", "hand", "cost", "sampler", "planner", "variant", "preset", "experiment")
+FINISHED = ("ok", "diverged")
 
 log = logging.getLogger("contactmpc")
 
@@ -47,28 +54,45 @@ def build_scene(cfg: DictConfig):
     return instantiate(cfg.scene)(hand=hand, task=task)
 
 
+def existing_record(output_dir: Path) -> dict | None:
+    """The finished record in ``output_dir`` (status ok or diverged), if any: such jobs are skipped."""
+    path = output_dir / RECORD_NAME
+    if not path.exists():
+        return None
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    return record if record.get("status") in FINISHED else None
+
+
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def main(cfg: DictConfig) -> object:
-    choices = HydraConfig.get().runtime.choices
-    labels = {
-        g: choices.get(g) for g in ("task", "hand", "cost", "sampler", "planner", "preset", "experiment")
-    }
+    hc = HydraConfig.get()
+    multirun = hc.mode == RunMode.MULTIRUN
+    output_dir = Path(cfg.output_dir)
+    done = existing_record(output_dir) if cfg.resume else None
+    if done is not None:
+        print(f"[contactmpc] skipped (record exists, status {done['status']}): {output_dir / RECORD_NAME}")
+        return str(output_dir / RECORD_NAME)
+    labels = {g: hc.runtime.choices.get(g) for g in LABELS}
     try:
-        scene = build_scene(cfg)
         job = instantiate(cfg.job)
         result = job(
-            scene=scene,
-            output_dir=Path(cfg.output_dir),
+            make_scene=functools.partial(build_scene, cfg),
+            output_dir=output_dir,
             seed=cfg.seed,
             config=OmegaConf.to_container(cfg, resolve=True),
             labels=labels,
         )
-    except (ValueError, RuntimeError, OSError) as err:
-        # Library errors are one line that names the problem (field, task, file).
-        print(f"contactmpc: error: {' '.join(str(err).split())}", file=sys.stderr)
+    except Exception as err:
+        # One line that names the problem; the trial's record (if it got that far) says the same.
+        print(f"contactmpc: error: {type(err).__name__}: {' '.join(str(err).split())}", file=sys.stderr)
+        if multirun:
+            return None  # the sweep goes on with its other jobs
         sys.exit(1)
     print(f"[contactmpc] {cfg.job._target_.rsplit('.', 1)[-1]}: wrote {result}")
-    return result
+    return str(result)
 
 
 if __name__ == "__main__":

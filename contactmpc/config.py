@@ -194,9 +194,11 @@ class Config:
     planner: Any = None
     job: Any = None
     preset: Any = None
+    variant: Any = None
     experiment: Any = None
     scene: SceneConf = field(default_factory=SceneConf)
     seed: int = 0
+    resume: bool = True
     duration: float | None = None
     output_dir: str = "${hydra:runtime.output_dir}"
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,7 @@ from contactmpc.trial import Trial
 
 
 def run_trial(
-    scene: Scene,
+    make_scene: Callable[[], Scene],
     output_dir: str | Path,
     seed: int,
     sampler: SplineSpace,
@@ -42,7 +43,8 @@ def run_trial(
     ``"diverged"``) and the reason, and the exception is re-raised after the record is on disk.
 
     Args:
-        scene: the composed scene.
+        make_scene: builds the scene (inside the record's guard, so a scene that fails to compile
+            still leaves a record).
         output_dir: the run directory.
         seed: the trial's seed.
         sampler: sampler space (PCA or joint splines).
@@ -66,6 +68,7 @@ def run_trial(
     record["git_revision"] = git_revision()
     wall0 = time.perf_counter()
     try:
+        scene = make_scene()
         reference = get_reference(scene, reference_cache)
         trial = Trial(scene, reference, sampler, cost, planner, seed, num_control_points, duration, progress)
         try:
@@ -95,8 +98,13 @@ def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected:
     plan = series["plan_seconds"]
     sim = float(trial.duration)
     final_err = trial.scene.task.object_error(series["object_qpos"][-1], trial.track.object_qpos[-1])
+    task = trial.scene.task
+    expected = series["expected_object_qpos"]
+    milestones = task.milestones(series["object_qpos"], expected)
     return {
         "ttf": ttf.ttf,
+        "completed": all(milestones.values()),
+        **{f"milestone_{k}": v for k, v in milestones.items()},
         "failed": ttf.failed,
         "failure_time": ttf.failure_time,
         "contact_span_start": None if ttf.span is None else ttf.span[0],

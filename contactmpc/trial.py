@@ -32,6 +32,7 @@ class TrialLog:
 
     Attributes:
         time: (N,) control time (s).
+        qpos: (N, nq) the plant's full configuration (for rendering the trial afterwards).
         hand_qpos: (N, 22) plant hand configuration.
         hand_target: (N, 22) joint targets sent to the actuators.
         object_qpos: (N, n_o) plant object configuration.
@@ -159,6 +160,7 @@ class Trial:
         err = scene.task.object_error(qo, tr.object_qpos[i])
         log.append(
             time=t,
+            qpos=d.qpos,
             hand_qpos=scene.hand_qpos(d),
             hand_target=target,
             object_qpos=qo,

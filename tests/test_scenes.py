@@ -373,7 +373,7 @@ def test_contact_step_costs_tens_of_microseconds(scene_for):
 
 def test_render_scene_writes_png(scene_for, tmp_path):
     scene = scene_for("stapler")
-    path = render_scene(scene, tmp_path, size=(120, 160))
+    path = render_scene(lambda: scene, tmp_path, size=(120, 160))
     assert path == tmp_path / "scene_stapler.png" and path.exists()
     img = iio.imread(path)
     assert img.shape == (120, 160, 3) and img.dtype == np.uint8

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import mujoco
+import numpy as np
 
 from contactmpc.tasks.base import ObjectJoint, Task
 
@@ -68,3 +69,14 @@ class AppleTask(Task):
             contype=0,
             conaffinity=0,
         )
+
+    LIFT = 0.05  # m above the table to count as lifted
+    HANDOFF_TOLERANCE = 0.03  # m from the reference's final (hand-off) position
+
+    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
+        """Lifted off the table, then at the reference's hand-off position at the end."""
+        return {
+            "lifted": bool(np.max(self.lift(qo)) > self.LIFT),
+            "handed_off": bool(np.linalg.norm(qo[-1, :3] - expected[-1, :3]) < self.HANDOFF_TOLERANCE)
+            and bool(self.lift(qo)[-1] > self.LIFT),
+        }

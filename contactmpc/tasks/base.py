@@ -221,6 +221,37 @@ class Task:
             col += JOINT_WIDTH[j.kind]
         return ObjectError(position=pos, rotation=rot, articulation=np.sqrt(art))
 
+    # --- completion -------------------------------------------------------------------------
+    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
+        """The task's milestones, judged on a trial's object trajectory.
+
+        Args:
+            qo: (N, n_o) the plant's object configuration over the trial.
+            expected: (N, n_o) the reference's object configuration at the same times.
+
+        Returns:
+            Milestone name -> reached. The task is completed when all are reached.
+        """
+        raise NotImplementedError
+
+    def completed(self, qo: np.ndarray, expected: np.ndarray) -> bool:
+        """Whether every milestone of :meth:`milestones` was reached."""
+        return all(self.milestones(qo, expected).values())
+
+    @staticmethod
+    def lift(qo: np.ndarray) -> np.ndarray:
+        """(N,) height of a free body (columns 0:3 of ``q_o``) above its first position (m)."""
+        return qo[:, 2] - qo[0, 2]
+
+    @staticmethod
+    def tilt(qo: np.ndarray) -> np.ndarray:
+        """(N,) angle between a free body's z axis (quaternion in columns 3:7) and world z (rad)."""
+        w, x, y = qo[:, 3], qo[:, 4], qo[:, 5]
+        z = qo[:, 6]
+        zz = 1.0 - 2.0 * (x * x + y * y)  # world-z component of the body's z axis
+        zz /= w * w + x * x + y * y + z * z
+        return np.arccos(np.clip(zz, -1.0, 1.0))
+
     def initial_object_qpos(self, model: mujoco.MjModel) -> np.ndarray:
         """(n_o,) the object configuration of the model's default pose (``qpos0``)."""
         return model.qpos0[self.qo_qpos_indices(model)].copy()

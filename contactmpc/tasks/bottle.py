@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import mujoco
+import numpy as np
 
 from contactmpc.tasks.base import ObjectJoint, Task
 
@@ -81,3 +82,14 @@ class BottleTask(Task):
             rgba=[0.1, 0.35, 0.85, 1.0],
             friction=fric,
         )
+
+    LIFT = 0.05  # m above the table to count as lifted
+    POUR_TILT = 1.2  # rad (~70 deg) from upright to count as pouring
+
+    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
+        """Lifted off the table, and tilted to pour while lifted."""
+        lifted = self.lift(qo) > self.LIFT
+        return {
+            "lifted": bool(lifted.any()),
+            "poured": bool(np.any(lifted & (self.tilt(qo) > self.POUR_TILT))),
+        }

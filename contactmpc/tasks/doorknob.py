@@ -40,7 +40,7 @@ class DoorknobTask(Task):
     object_joints = (ObjectJoint("door_hinge", "hinge"), ObjectJoint("knob_hinge", "hinge"))
     object_bodies = ("knob", "door")
     BOLT_FRICTION = 0.3  # sliding friction of the latch bolt on its strike (greased metal)
-    view = {"lookat": (-0.15, -0.1, 0.38), "distance": 0.85, "azimuth": 60.0, "elevation": -15.0}
+    view = {"lookat": (-0.1, -0.14, 0.4), "distance": 0.65, "azimuth": 45.0, "elevation": -20.0}
 
     def __init__(
         self,
@@ -231,3 +231,12 @@ class DoorknobTask(Task):
         eq.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
         eq.solref = [0.02, 1.0]
         spec.add_exclude(bodyname1="door", bodyname2="knob")
+
+    OPEN = 0.3  # rad the door must swing towards the hand to count as pulled open
+
+    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
+        """Knob twisted past the unlock angle, and the door pulled open."""
+        return {
+            "twisted": bool(np.max(qo[:, 1]) >= self.unlock_angle),
+            "opened": bool(np.min(qo[:, 0]) <= -self.OPEN),
+        }

@@ -119,3 +119,14 @@ class StaplerTask(Task):
         qo = super().initial_object_qpos(model)
         qo[-1] = self.open_angle
         return qo
+
+    LIFT = 0.04  # m above the table to count as lifted
+    PRESSED = 0.05  # rad: the arm's angle when pressed shut
+
+    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
+        """Lifted off the table, and the top arm pressed shut while lifted."""
+        lifted = self.lift(qo) > self.LIFT
+        return {
+            "lifted": bool(lifted.any()),
+            "pressed": bool(np.any(lifted & (qo[:, 7] < self.PRESSED))),
+        }

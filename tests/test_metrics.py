@@ -1,0 +1,85 @@
+"""The paper's time-to-failure rule on synthetic contact logs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactmpc.metrics import time_to_failure
+
+DT = 0.001
+
+
+def log(duration=2.0, expected_links=8, n_links=12):
+    t = np.arange(int(round(duration / DT)) + 1) * DT
+    expected = np.zeros((len(t), n_links), bool)
+    expected[:, :expected_links] = True
+    contacts = np.zeros_like(expected)
+    contacts[:, 0] = True
+    return t, contacts, expected
+
+
+def test_no_failure_when_always_touching():
+    t, c, e = log()
+    r = time_to_failure(t, c, e)
+    assert (r.ttf, r.failed, r.failure_time) == (1.0, False, None)
+    assert r.span == (0.0, pytest.approx(2.0))
+
+
+def test_gap_of_299_ms_is_not_a_failure_but_300_ms_is():
+    t, c, e = log()
+    start = 1000  # t = 1.0 s
+    c299 = c.copy()
+    c299[start : start + 299, :] = False  # samples 1.000 .. 1.298: 298 ms between first and last
+    assert not time_to_failure(t, c299, e).failed
+    c299b = c.copy()
+    c299b[start : start + 300, :] = False  # 1.000 .. 1.299: a 299 ms gap
+    assert not time_to_failure(t, c299b, e).failed
+    c300 = c.copy()
+    c300[start : start + 301, :] = False  # 1.000 .. 1.300: a 300 ms gap
+    r = time_to_failure(t, c300, e)
+    assert r.failed
+    assert r.failure_time == pytest.approx(1.0)
+    assert r.ttf == pytest.approx(0.5)
+
+
+def test_no_failure_while_six_or_fewer_contacts_are_expected():
+    t, c, e = log(expected_links=6)
+    c[500:1500] = False
+    assert not time_to_failure(t, c, e).failed
+    t, c, e = log(expected_links=7)
+    c[500:1500] = False
+    assert time_to_failure(t, c, e).failed
+
+
+def test_the_rule_needs_more_than_six_throughout_the_gap():
+    t, c, e = log(expected_links=8)
+    c[1000:1400] = False
+    e[1200:1210, 2:] = False  # only 2 expected for 10 ms in the middle of the gap
+    r = time_to_failure(t, c, e)
+    # 1.000-1.199 (199 ms) and 1.210-1.399 (189 ms) are each shorter than 300 ms.
+    assert not r.failed
+
+
+def test_ttf_is_the_fraction_of_the_contact_span():
+    t, c, e = log(duration=3.0)
+    e[:500] = False  # contact expected from 0.5 s ...
+    e[2501:] = False  # ... to 2.5 s: a 2 s span
+    c[1000:1400] = False  # contact lost at 1.0 s
+    r = time_to_failure(t, c, e)
+    assert r.span == (pytest.approx(0.5), pytest.approx(2.5))
+    assert r.ttf == pytest.approx((1.0 - 0.5) / 2.0)
+
+
+def test_custom_thresholds():
+    t, c, e = log()
+    c[1000:1150] = False
+    assert not time_to_failure(t, c, e).failed
+    assert time_to_failure(t, c, e, gap=0.1).failed
+    assert not time_to_failure(t, c, e, gap=0.1, min_expected=8).failed
+
+
+def test_no_expected_contacts_means_no_span():
+    t, c, e = log(expected_links=0)
+    r = time_to_failure(t, c, e)
+    assert (r.ttf, r.failed, r.span) == (1.0, False, None)
