@@ -176,6 +176,19 @@ class TrialJobConf:
 
 
 @dataclass
+class BenchmarkJobConf:
+    _target_: str = "contactmpc.bench.benchmark_planner"
+    _partial_: bool = True
+    sampler: Any = "${sampler}"
+    cost: Any = "${cost}"
+    planner: Any = "${planner}"
+    threads: list[int] = field(default_factory=lambda: [1, 2])
+    repeats: int = 10
+    at_fraction: float = 0.5
+    reference_cache: str | None = "outputs/cache/references"
+
+
+@dataclass
 class RenderSceneJobConf:
     _target_: str = "contactmpc.render.render_scene"
     _partial_: bool = True
@@ -218,4 +231,5 @@ SCHEMAS: tuple[tuple[str | None, str, type], ...] = (
     ("planner", "cem_schema", CEMConf),
     ("job", "trial_schema", TrialJobConf),
     ("job", "render_scene_schema", RenderSceneJobConf),
+    ("job", "benchmark_schema", BenchmarkJobConf),
 )

@@ -1,0 +1,51 @@
+"""``python -m analysis SWEEP_DIR [SWEEP_DIR ...] --out-dir DIR``: table, figure and report in one go.
+
+Writes ``DIR/results.csv`` (every trial), ``DIR/fig3.png`` (the paper's Fig. 3) and ``DIR/results.md``
+(per task × variant statistics and full vs ablation tests).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Parser of ``python -m analysis``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m analysis",
+        description="Read the trial records of sweeps; write results.csv, fig3.png and results.md.",
+    )
+    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR", help="sweep directories to read")
+    parser.add_argument("--out-dir", default="results", help="output directory; default %(default)s")
+    parser.add_argument(
+        "--parquet", action="store_true", help="write results.parquet instead of results.csv (needs pyarrow)"
+    )
+    parser.add_argument("--alpha", type=float, default=0.05, help="significance level; default %(default)s")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``python -m analysis``; returns the exit status."""
+    from analysis._cli import fail, load_for_cli
+    from analysis.report import write_all
+
+    args = build_parser().parse_args(argv)
+    df = load_for_cli(args.sweep_dirs)
+    if df is None:
+        return 2
+    try:
+        written = write_all(
+            df,
+            args.out_dir,
+            sweep_dirs=args.sweep_dirs,
+            table_name="results.parquet" if args.parquet else "results.csv",
+            alpha=args.alpha,
+        )
+    except (OSError, RuntimeError, ValueError) as err:
+        return fail(err)
+    print(f"wrote {', '.join(map(str, written))} ({len(df)} trials)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,42 @@
+"""Helpers shared by the command lines: one-line errors and warnings on stderr."""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from collections.abc import Sequence
+
+import pandas as pd
+
+from analysis.aggregate import RECORD_NAME, load_records
+
+
+def fail(err: BaseException | str) -> int:
+    """Print ``error: ...`` on one line to stderr; returns the exit status 2."""
+    text = err if isinstance(err, str) else str(err) or type(err).__name__
+    print("error: " + " ".join(text.split()), file=sys.stderr)
+    return 2
+
+
+def load_for_cli(dirs: Sequence[str], dedupe: bool = True) -> pd.DataFrame | None:
+    """:func:`~analysis.aggregate.load_records` for a command line.
+
+    Skipped records are reported as ``warning: ...`` lines; a missing directory, or no record at all,
+    as one ``error: ...`` line.
+
+    Returns:
+        The table, or ``None`` after an error was printed.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            df = load_records(*dirs, dedupe=dedupe)
+        except OSError as err:
+            fail(err)
+            return None
+    for w in caught:
+        print("warning: " + " ".join(str(w.message).split()), file=sys.stderr)
+    if not len(df):
+        fail(f"no readable {RECORD_NAME} records under {', '.join(map(str, dirs))}")
+        return None
+    return df

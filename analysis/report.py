@@ -1,0 +1,389 @@
+"""Markdown report of a sweep: per task and variant statistics, and full vs each ablation.
+
+Command line::
+
+    python -m analysis.report SWEEP_DIR... --out results.md [--csv results.csv] [--figure fig3.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.stats import mannwhitneyu
+
+from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, write_table
+
+REFERENCE_VARIANT = "full"
+
+
+def summary_table(df: pd.DataFrame) -> pd.DataFrame:
+    """Statistics per task and variant.
+
+    TTF, completion and tracking error are over the trials with status ``ok`` (and a TTF) only.
+
+    Args:
+        df: the table of :func:`analysis.aggregate.load_records`.
+
+    Returns:
+        One row per (task, variant) in paper order, columns ``task``, ``variant``, ``trials`` (all
+        records), ``n`` (status ok), ``errors`` (status not ok), ``completion_rate`` (mean of
+        ``completed`` where recorded, NaN if never), ``ttf_median``, ``ttf_q25``, ``ttf_q75`` (fractions
+        of the contact span) and ``object_position_error_mean`` (m, mean over trials of the per-trial mean).
+    """
+    good = ok_trials(df)
+    rows = []
+    for task in ordered(df["task"], TASK_ORDER):
+        for variant in ordered(df["variant"], VARIANT_ORDER):
+            sel = (df["task"] == task) & (df["variant"] == variant)
+            if not sel.any():
+                continue
+            g = good[(good["task"] == task) & (good["variant"] == variant)]
+            ttf = g["ttf"].to_numpy(float)
+            completed = g["completed"].dropna()
+            rows.append(
+                {
+                    "task": task,
+                    "variant": variant,
+                    "trials": int(sel.sum()),
+                    "n": len(g),
+                    "errors": int((df.loc[sel, "status"] != "ok").sum()),
+                    "completion_rate": float(completed.astype(float).mean()) if len(completed) else math.nan,
+                    "ttf_median": float(np.median(ttf)) if len(ttf) else math.nan,
+                    "ttf_q25": float(np.percentile(ttf, 25)) if len(ttf) else math.nan,
+                    "ttf_q75": float(np.percentile(ttf, 75)) if len(ttf) else math.nan,
+                    "object_position_error_mean": float(g["object_position_error_mean"].mean())
+                    if g["object_position_error_mean"].notna().any()
+                    else math.nan,
+                }
+            )
+    return pd.DataFrame(
+        rows,
+        columns=[
+            "task",
+            "variant",
+            "trials",
+            "n",
+            "errors",
+            "completion_rate",
+            "ttf_median",
+            "ttf_q25",
+            "ttf_q75",
+            "object_position_error_mean",
+        ],
+    )
+
+
+def holm(p: Sequence[float]) -> np.ndarray:
+    """Holm–Bonferroni adjusted p-values (NaN entries are left out of the family and stay NaN)."""
+    p = np.asarray(p, float)
+    out = np.full_like(p, np.nan)
+    idx = np.flatnonzero(np.isfinite(p))
+    m = len(idx)
+    running = 0.0
+    for rank, i in enumerate(idx[np.argsort(p[idx], kind="stable")]):
+        running = max(running, min(1.0, (m - rank) * p[i]))
+        out[i] = running
+    return out
+
+
+def significance_tests(
+    df: pd.DataFrame, reference: str = REFERENCE_VARIANT, alpha: float = 0.05
+) -> pd.DataFrame:
+    """Two-sided Mann–Whitney U tests of TTF: ``reference`` against every other variant, per task.
+
+    Only trials with status ``ok`` count. ``U`` is the statistic of the reference sample, so
+    ``prob_superiority`` = U / (n_ref n_other) estimates P(TTF_ref > TTF_other) + ½ P(tie). ``p_holm`` is
+    Holm-adjusted over all the tests of the table; the ``reading`` uses it at level ``alpha``.
+
+    Args:
+        df: the table of :func:`analysis.aggregate.load_records`.
+        reference: the variant the others are compared with.
+        alpha: significance level of the reading.
+
+    Returns:
+        One row per (task, other variant) with columns ``task``, ``reference``, ``variant``, ``n_ref``,
+        ``n_other``, ``median_ref``, ``median_other``, ``U``, ``p``, ``p_holm``, ``prob_superiority``,
+        ``reading``. Empty when no task has the reference variant.
+    """
+    good = ok_trials(df)
+    rows = []
+    for task in ordered(df["task"], TASK_ORDER):
+        in_task = df[df["task"] == task]
+        if not (in_task["variant"] == reference).any():
+            continue
+        a = good.loc[(good["task"] == task) & (good["variant"] == reference), "ttf"].to_numpy(float)
+        for variant in ordered(in_task["variant"], VARIANT_ORDER):
+            if variant == reference:
+                continue
+            b = good.loc[(good["task"] == task) & (good["variant"] == variant), "ttf"].to_numpy(float)
+            row = {
+                "task": task,
+                "reference": reference,
+                "variant": variant,
+                "n_ref": len(a),
+                "n_other": len(b),
+                "median_ref": float(np.median(a)) if len(a) else math.nan,
+                "median_other": float(np.median(b)) if len(b) else math.nan,
+                "U": math.nan,
+                "p": math.nan,
+                "prob_superiority": math.nan,
+            }
+            if len(a) and len(b):
+                res = mannwhitneyu(a, b, alternative="two-sided")
+                row.update(U=float(res.statistic), p=float(res.pvalue))
+                row["prob_superiority"] = row["U"] / (len(a) * len(b))
+            rows.append(row)
+    columns = [
+        "task",
+        "reference",
+        "variant",
+        "n_ref",
+        "n_other",
+        "median_ref",
+        "median_other",
+        "U",
+        "p",
+        "p_holm",
+        "prob_superiority",
+        "reading",
+    ]
+    out = pd.DataFrame(rows, columns=columns)
+    out["p_holm"] = holm(out["p"]) if len(out) else []
+    out["reading"] = [_reading(r, alpha) for r in out.itertuples(index=False)]
+    return out
+
+
+def _reading(r, alpha: float) -> str:
+    if not (r.n_ref and r.n_other):
+        missing = r.reference if not r.n_ref else r.variant
+        return f"not tested: no ok trial of {missing}"
+    medians = f"median {_pct(r.median_ref)} % vs {_pct(r.median_other)} %"
+    small = " (small samples)" if min(r.n_ref, r.n_other) < 5 else ""
+    if r.p_holm < alpha:
+        direction = "longer" if r.prob_superiority > 0.5 else "shorter"
+        return f"{r.reference} lasts {direction} than {r.variant} ({medians}; Holm p = {_p(r.p_holm)}){small}"
+    return f"no significant difference at α = {alpha:g} ({medians}; Holm p = {_p(r.p_holm)}){small}"
+
+
+def markdown_report(
+    df: pd.DataFrame,
+    *,
+    sweep_dirs: Sequence[str | Path] = (),
+    figure: str | None = None,
+    alpha: float = 0.05,
+) -> str:
+    """The report as Markdown: provenance, a table per task × variant, and full vs each ablation.
+
+    Args:
+        df: the table of :func:`analysis.aggregate.load_records`.
+        sweep_dirs: the directories read, listed in the report (defaults to the table's ``sweep_dir``).
+        figure: a path (relative to the report) of the TTF figure to embed; ``None`` for none.
+        alpha: significance level of the readings.
+
+    Returns:
+        The Markdown text.
+    """
+    summary = summary_table(df)
+    tests = significance_tests(df, alpha=alpha)
+    status = df["status"].fillna("no status").value_counts()
+    dirs = [str(d) for d in sweep_dirs] or sorted(df["sweep_dir"].dropna().astype(str).unique())
+    lines = [
+        "# ContactMPC results",
+        "",
+        f"- Sweeps: {', '.join(f'`{d}`' for d in dirs) or '—'}",
+        f"- Trials: {len(df)} ({', '.join(f'{n} {s}' for s, n in sorted(status.items())) or 'none'})",
+    ]
+    for col, label in (("preset", "Presets"), ("hand", "Hands"), ("planner", "Planners")):
+        counts = df[col].fillna("?").astype(str).value_counts()
+        lines.append(f"- {label}: {', '.join(f'{k} ({n})' for k, n in sorted(counts.items()))}")
+    revisions = sorted(df["git_revision"].dropna().astype(str).unique())
+    lines.append(f"- Git revisions: {', '.join(f'`{r}`' for r in revisions) or 'unknown'}")
+    lines += ["", "## Per task and variant", ""]
+    lines += _table(
+        [
+            "task",
+            "variant",
+            "n",
+            "errors",
+            "completion",
+            "median TTF %",
+            "IQR TTF %",
+            "mean obj. pos. err. (mm)",
+        ],
+        [
+            [
+                r.task,
+                r.variant,
+                r.n,
+                r.errors,
+                _pct(r.completion_rate, 0, suffix=" %"),
+                _pct(r.ttf_median),
+                f"{_pct(r.ttf_q25)}–{_pct(r.ttf_q75)}" if np.isfinite(r.ttf_q25) else "—",
+                _num(1000.0 * r.object_position_error_mean, 1),
+            ]
+            for r in summary.itertuples(index=False)
+        ],
+        align="llrrrrrr",
+    )
+    lines += [
+        "",
+        "TTF is the time to failure as a percentage of the span between the first and last expected contact;",
+        "`n` counts the trials with status ok (only they count for TTF, completion and error), `errors` the",
+        "others (error, diverged, unfinished). Completion is the rate of the task's own success predicate,",
+        "where recorded: TTF overestimates success (paper §III).",
+        "",
+        f"## {REFERENCE_VARIANT} vs each ablation (Mann–Whitney U on TTF, two-sided)",
+        "",
+    ]
+    if len(tests):
+        lines += _table(
+            ["task", "comparison", "n", "U", "p", "p (Holm)", f"P({REFERENCE_VARIANT} > other)"],
+            [
+                [
+                    r.task,
+                    f"{r.reference} vs {r.variant}",
+                    f"{r.n_ref} vs {r.n_other}",
+                    _num(r.U, 1),
+                    _p(r.p),
+                    _p(r.p_holm),
+                    _num(r.prob_superiority, 2),
+                ]
+                for r in tests.itertuples(index=False)
+            ],
+            align="llrrrrr",
+        )
+        lines += [
+            "",
+            f"Readings (Holm-adjusted over the {int(np.isfinite(tests['p']).sum())} tests, α = {alpha:g}):",
+            "",
+        ]
+        lines += [
+            f"- **{r.task}**, {r.reference} vs {r.variant}: {r.reading}."
+            for r in tests.itertuples(index=False)
+        ]
+    else:
+        lines.append(f"No task has trials of the `{REFERENCE_VARIANT}` variant: nothing to compare.")
+    if figure:
+        lines += [
+            "",
+            "## Time to failure (paper Fig. 3)",
+            "",
+            f"![Time to failure per task and variant]({figure})",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(
+    df: pd.DataFrame,
+    out: str | Path,
+    *,
+    sweep_dirs: Sequence[str | Path] = (),
+    csv: str | Path | None = None,
+    figure: str | Path | None = None,
+    alpha: float = 0.05,
+) -> list[Path]:
+    """Write the Markdown report to ``out``, and optionally the table (``csv``) and the figure (``figure``).
+
+    Returns:
+        The paths written.
+    """
+    from analysis.figures import ttf_boxplot
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    written = []
+    if csv is not None:
+        written.append(write_table(df, csv))
+    link = None
+    if figure is not None:
+        ttf_boxplot(df, figure)
+        written.append(Path(figure))
+        link = Path(os.path.relpath(Path(figure).resolve(), out.resolve().parent)).as_posix()
+    out.write_text(markdown_report(df, sweep_dirs=sweep_dirs, figure=link, alpha=alpha))
+    written.append(out)
+    return written
+
+
+def write_all(
+    df: pd.DataFrame,
+    out_dir: str | Path,
+    *,
+    sweep_dirs: Sequence[str | Path] = (),
+    table_name: str = "results.csv",
+    alpha: float = 0.05,
+) -> list[Path]:
+    """Write ``results.csv`` (or ``table_name``), ``fig3.png`` and ``results.md`` into ``out_dir``.
+
+    Returns:
+        The paths written.
+    """
+    out_dir = Path(out_dir)
+    return write_report(
+        df,
+        out_dir / "results.md",
+        sweep_dirs=sweep_dirs,
+        csv=out_dir / table_name,
+        figure=out_dir / "fig3.png",
+        alpha=alpha,
+    )
+
+
+def _table(header: list[str], rows: list[list], align: str) -> list[str]:
+    marks = {"l": ":--", "r": "--:"}
+    out = ["| " + " | ".join(header) + " |", "| " + " | ".join(marks[a] for a in align) + " |"]
+    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return out
+
+
+def _pct(x: float, digits: int = 1, suffix: str = "") -> str:
+    return f"{100.0 * x:.{digits}f}{suffix}" if x is not None and np.isfinite(x) else "—"
+
+
+def _num(x: float, digits: int) -> str:
+    return f"{x:.{digits}f}" if x is not None and np.isfinite(x) else "—"
+
+
+def _p(p: float) -> str:
+    return f"{p:.3g}" if p is not None and np.isfinite(p) else "—"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Parser of ``python -m analysis.report``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m analysis.report",
+        description="Write a Markdown report (per task × variant statistics, full vs ablation tests).",
+    )
+    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR", help="sweep directories to read")
+    parser.add_argument("--out", default="results.md", help="Markdown report; default %(default)s")
+    parser.add_argument("--csv", default=None, help="also write the table here (.csv or .parquet)")
+    parser.add_argument("--figure", default=None, help="also draw the TTF box plot here and embed it")
+    parser.add_argument("--alpha", type=float, default=0.05, help="significance level; default %(default)s")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``python -m analysis.report``; returns the exit status."""
+    from analysis._cli import fail, load_for_cli
+
+    args = build_parser().parse_args(argv)
+    df = load_for_cli(args.sweep_dirs)
+    if df is None:
+        return 2
+    try:
+        written = write_report(
+            df, args.out, sweep_dirs=args.sweep_dirs, csv=args.csv, figure=args.figure, alpha=args.alpha
+        )
+    except (OSError, RuntimeError, ValueError) as err:
+        return fail(err)
+    print(f"wrote {', '.join(map(str, written))} ({len(df)} trials)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
