@@ -83,7 +83,9 @@ def benchmark_planner(
         thetas = np.broadcast_to(planner.theta, (planner.num_samples,) + planner.theta.shape)
         ctrl = planner.controls(thetas, planner.basis(t))
         bare = _median_time(lambda: planner.engine.run(state, ctrl), repeats)  # noqa: B023
-        rows.append({"nthread": nthread, "plan_seconds": plan, "rollout_seconds": bare, "overhead": plan / bare})
+        rows.append(
+            {"nthread": nthread, "plan_seconds": plan, "rollout_seconds": bare, "overhead": plan / bare}
+        )
     planner.close()
     base = rows[0]["plan_seconds"]
     for row in rows:
@@ -95,7 +97,8 @@ def benchmark_planner(
         "planner": type(planner).__name__,
         "rows": rows,
     }
-    print(f"{scene.task.name}: {planner.num_samples} samples x {planner.steps} steps ({type(planner).__name__})")
+    name = type(planner).__name__
+    print(f"{scene.task.name}: {planner.num_samples} samples x {planner.steps} steps ({name})")
     print(f"{'threads':>8} {'plan [s]':>10} {'rollout [s]':>12} {'overhead':>9} {'speed-up':>9}")
     for r in rows:
         print(
