@@ -4,6 +4,7 @@ and called with ``scene``, ``output_dir``, ``seed`` and ``config`` (the resolved
 
 from __future__ import annotations
 
+import logging
 import time
 import traceback
 from collections.abc import Callable
@@ -19,6 +20,8 @@ from contactmpc.records import RECORD_NAME, SERIES_NAME, git_revision, versions,
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
 from contactmpc.trial import Trial
+
+logger = logging.getLogger(__name__)
 
 
 def run_trial(
@@ -89,7 +92,22 @@ def run_trial(
         write_json(out / RECORD_NAME, record)
         raise
     record["config"] = config
-    return write_json(out / RECORD_NAME, record)
+    path = write_json(out / RECORD_NAME, record)
+    logger.info(
+        "%s seed %d: ttf %.2f, completed %s %s, object error %.1f mm / %.1f deg (mean), "
+        "%.1f s simulated in %.1f s (real-time factor %.3f)",
+        scene.task.name,
+        seed,
+        record["ttf"],
+        record["completed"],
+        {k[10:]: v for k, v in record.items() if k.startswith("milestone_")},
+        1000 * record["object_position_error_mean"],
+        np.degrees(record["object_rotation_error_mean"]),
+        record["simulated_seconds"],
+        record["wall_seconds"],
+        record["real_time_factor"],
+    )
+    return path
 
 
 def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected: int) -> dict:
