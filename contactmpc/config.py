@@ -189,6 +189,28 @@ class BenchmarkJobConf:
 
 
 @dataclass
+class WriteReferenceJobConf:
+    _target_: str = "contactmpc.jobs.write_reference"
+    _partial_: bool = True
+    path: str | None = None
+
+
+@dataclass
+class ReferenceReportJobConf:
+    _target_: str = "contactmpc.jobs.reference_report"
+    _partial_: bool = True
+
+
+@dataclass
+class FilmstripJobConf:
+    _target_: str = "contactmpc.jobs.reference_filmstrip"
+    _partial_: bool = True
+    num_frames: int = 7
+    size: list[int] = field(default_factory=lambda: [240, 320])
+    reference_cache: str | None = "outputs/cache/references"
+
+
+@dataclass
 class RenderSceneJobConf:
     _target_: str = "contactmpc.render.render_scene"
     _partial_: bool = True
@@ -232,4 +254,7 @@ SCHEMAS: tuple[tuple[str | None, str, type], ...] = (
     ("job", "trial_schema", TrialJobConf),
     ("job", "render_scene_schema", RenderSceneJobConf),
     ("job", "benchmark_schema", BenchmarkJobConf),
+    ("job", "write_reference_schema", WriteReferenceJobConf),
+    ("job", "reference_report_schema", ReferenceReportJobConf),
+    ("job", "filmstrip_schema", FilmstripJobConf),
 )

@@ -168,7 +168,8 @@ class AllegroHand:
         damping_hinge: Wrist hinge joint damping (N·m·s/rad).
         armature_wrist: Armature of the six wrist joints (kg for slides, kg·m² for hinges).
         slide_range: Limits of the wrist slides (m), relative to ``root_pos``.
-        hinge_range: Limits of the wrist hinges (rad).
+        hinge_range: Limits of the wrist hinges (rad); wider than +-pi so that palm-down poses
+            (rx = pi) lie inside the range.
         gravcomp: Compensate gravity on every hand body.
         name: Identifier of this hand (for records); body, joint and actuator names are fixed.
     """
@@ -200,7 +201,7 @@ class AllegroHand:
         damping_hinge: float = 3.0,
         armature_wrist: float = 0.0,
         slide_range: tuple[float, float] = (-1.0, 1.0),
-        hinge_range: tuple[float, float] = (-3.14159, 3.14159),
+        hinge_range: tuple[float, float] = (-6.2832, 6.2832),
         gravcomp: bool = True,
         name: str = "allegro_right",
     ) -> None:
