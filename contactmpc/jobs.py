@@ -19,7 +19,7 @@ from contactmpc.metrics import time_to_failure
 from contactmpc.records import RECORD_NAME, SERIES_NAME, git_revision, versions, write_json, write_series
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
-from contactmpc.trial import Trial
+from contactmpc.trial import PlantDiverged, Trial
 
 logger = logging.getLogger(__name__)
 
@@ -74,17 +74,19 @@ def run_trial(
         scene = make_scene()
         reference = get_reference(scene, reference_cache)
         trial = Trial(scene, reference, sampler, cost, planner, seed, num_control_points, duration, progress)
+        loop0 = time.perf_counter()
         try:
             log = trial.run()
         finally:
             planner.close()
         series = log.arrays()
-        wall = time.perf_counter() - wall0
+        wall = time.perf_counter() - loop0  # the closed loop alone, for the real-time factor
         record.update(summarize(series, trial, wall, failure_gap, failure_min_expected))
+        record["setup_seconds"] = loop0 - wall0
         record["status"] = "ok"
         write_series(out / SERIES_NAME, series)
     except Exception as err:
-        record["status"] = "diverged" if type(err).__name__ == "PlantDiverged" else "error"
+        record["status"] = "diverged" if isinstance(err, PlantDiverged) else "error"
         record["error"] = f"{type(err).__name__}: {' '.join(str(err).split())}"
         record["traceback"] = traceback.format_exc(limit=8)
         record["wall_seconds"] = time.perf_counter() - wall0
