@@ -173,6 +173,8 @@ class TrialJobConf:
     failure_gap: float = 0.3
     failure_min_expected: int = 6
     reference_cache: str | None = "outputs/cache/references"
+    video: str | None = None
+    video_speed: float = 1.0
 
 
 @dataclass

@@ -37,6 +37,8 @@ def run_trial(
     failure_gap: float = 0.3,
     failure_min_expected: int = 6,
     reference_cache: str | None = "outputs/cache/references",
+    video: str | None = None,
+    video_speed: float = 1.0,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -59,6 +61,9 @@ def run_trial(
         failure_gap: TTF rule: seconds without any contact (paper 0.3).
         failure_min_expected: TTF rule: needs more than this many expected contacts (paper 6).
         reference_cache: directory caching synthesised references (``None`` disables).
+        video: ``"gif"`` or ``"mp4"`` to render the trial next to its record (``trial.<ext>``);
+            ``None`` renders nothing.
+        video_speed: playback speed of the video relative to control time.
         config: the resolved config, stored in the record.
         labels: names of the config choices (task, hand, cost, sampler, planner) for the record.
 
@@ -85,6 +90,12 @@ def run_trial(
         record["setup_seconds"] = loop0 - wall0
         record["status"] = "ok"
         write_series(out / SERIES_NAME, series)
+        if video:
+            from contactmpc.render import render_trial_video
+
+            record["video"] = str(
+                render_trial_video(scene, series, trial.track, out / f"trial.{video}", speed=video_speed)
+            )
     except Exception as err:
         record["status"] = "diverged" if isinstance(err, PlantDiverged) else "error"
         record["error"] = f"{type(err).__name__}: {' '.join(str(err).split())}"
@@ -96,7 +107,7 @@ def run_trial(
     record["config"] = config
     path = write_json(out / RECORD_NAME, record)
     logger.info(
-        "%s seed %d: ttf %.2f, completed %s %s, object error %.1f mm / %.1f deg (mean), "
+        "%s seed %d: ttf %.2f, completed %s %s, object error %.1f mm / %.1f deg / %.3f rad (mean), "
         "%.1f s simulated in %.1f s (real-time factor %.3f)",
         scene.task.name,
         seed,
@@ -105,6 +116,7 @@ def run_trial(
         {k[10:]: v for k, v in record.items() if k.startswith("milestone_")},
         1000 * record["object_position_error_mean"],
         np.degrees(record["object_rotation_error_mean"]),
+        record["object_articulation_error_mean"],
         record["simulated_seconds"],
         record["wall_seconds"],
         record["real_time_factor"],

@@ -61,5 +61,6 @@ def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Referenc
     ref = synthesize(scene)
     ref.validate(scene.hand.joint_names, scene.hand.link_names)
     if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
         ref.save(path)
     return ref
