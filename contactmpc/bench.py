@@ -78,11 +78,20 @@ def benchmark_planner(
         state = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
         mujoco.mj_getState(m, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         state[0] = t
-        rng = np.random.default_rng(seed)
-        plan = _median_time(lambda: planner.plan(t, state, rng), repeats)  # noqa: B023
-        thetas = np.broadcast_to(planner.theta, (planner.num_samples,) + planner.theta.shape)
+        # The same candidates in both measurements: re-seed and restore the nominal every time.
+        theta0 = planner.theta.copy()
+
+        def plan_once(theta0=theta0, t=t, state=state) -> None:
+            planner.theta[:] = theta0
+            planner.plan(t, state, np.random.default_rng(seed))
+
+        window = planner.spline.window_indices(t, planner.horizon)
+        candidates = planner.sample(np.random.default_rng(seed), theta0[window], window)
+        thetas = np.broadcast_to(theta0, (len(candidates),) + theta0.shape).copy()
+        thetas[:, window] = candidates
         ctrl = planner.controls(thetas, planner.basis(t))
-        bare = _median_time(lambda: planner.engine.run(state, ctrl), repeats)  # noqa: B023
+        plan = _median_time(plan_once, repeats)
+        bare = _median_time(lambda state=state, ctrl=ctrl: planner.engine.run(state, ctrl), repeats)
         rows.append(
             {"nthread": nthread, "plan_seconds": plan, "rollout_seconds": bare, "overhead": plan / bare}
         )
