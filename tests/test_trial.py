@@ -61,6 +61,15 @@ def test_every_task_and_planner_runs_a_few_steps(task, planner, reference_files,
         assert np.isfinite(series["best_cost"]).all()
 
 
+def test_trial_video_is_written_next_to_the_record(reference_files, tmp_path):
+    overrides = ["task=doorknob", f"task.reference_path={reference_files['doorknob']}", *TINY]
+    path = run_job(overrides + ["duration=0.2", "job.progress=false", "job.video=gif"], tmp_path)
+    record = json.loads(path.read_text())
+    assert record["status"] == "ok", record.get("error")
+    assert (tmp_path / "trial.gif").stat().st_size > 1000
+    assert record["video"].endswith("trial.gif")
+
+
 def _trial(scene, ref, seed):
     planner = PredictiveSampling(num_samples=8, horizon=0.2, replan_period=0.05, nthread=2)
     cost = TrackingCost(lambda_v=0.0)  # without the velocity term some perturbations always win
