@@ -39,47 +39,51 @@ TASK_ORDER: tuple[str, ...] = ("doorknob", "apple", "bottle", "stapler")
 CONFIG_COLUMNS: tuple[str, ...] = ("num_samples", "horizon", "replan_period")
 #: Record fields that are not scalars and stay out of the table.
 DROPPED_FIELDS: tuple[str, ...] = ("config", "versions", "traceback")
-#: Columns of the table, in this order; fields a record has beyond these follow them.
-COLUMNS: tuple[str, ...] = (
-    "task",
-    "variant",
-    "hand",
-    "cost",
-    "sampler",
-    "planner",
-    "preset",
-    "experiment",
-    "seed",
-    "status",
-    "error",
-    "ttf",
-    "failed",
-    "failure_time",
-    "contact_span_start",
-    "contact_span_end",
-    "completed",
-    "object_position_error_mean",
-    "object_rotation_error_mean",
-    "object_articulation_error_mean",
-    "final_object_position_error",
-    "final_object_rotation_error",
-    "final_object_articulation_error",
-    "contact_fraction",
-    "plan_seconds_mean",
-    "plan_seconds_p95",
-    "simulated_seconds",
-    "wall_seconds",
-    "real_time_factor",
-    "num_control_points",
-    "num_plans",
-    "diverged_rollouts",
-    *CONFIG_COLUMNS,
-    "schema",
-    "git_revision",
-    "sweep_dir",
-    "record_path",
-    "record_mtime",
-)
+#: Columns of the table, in this order, with the type each is coerced to (``None``: left as read);
+#: fields a record has beyond these follow them.
+COLUMN_TYPES: dict[str, str | None] = {
+    "task": None,
+    "variant": None,
+    "hand": None,
+    "cost": None,
+    "sampler": None,
+    "planner": None,
+    "preset": None,
+    "experiment": None,
+    "seed": "Int64",
+    "status": None,
+    "error": None,
+    "ttf": "float",
+    "failed": "boolean",
+    "failure_time": "float",
+    "contact_span_start": "float",
+    "contact_span_end": "float",
+    "completed": "boolean",
+    "object_position_error_mean": "float",
+    "object_rotation_error_mean": "float",
+    "object_articulation_error_mean": "float",
+    "final_object_position_error": "float",
+    "final_object_rotation_error": "float",
+    "final_object_articulation_error": "float",
+    "contact_fraction": "float",
+    "plan_seconds_mean": "float",
+    "plan_seconds_p95": "float",
+    "simulated_seconds": "float",
+    "wall_seconds": "float",
+    "real_time_factor": "float",
+    "num_control_points": "Int64",
+    "num_plans": "Int64",
+    "diverged_rollouts": "Int64",
+    "num_samples": "Int64",
+    "horizon": "float",
+    "replan_period": "float",
+    "schema": "Int64",
+    "git_revision": None,
+    "sweep_dir": None,
+    "record_path": None,
+    "record_mtime": "datetime",
+}
+COLUMNS: tuple[str, ...] = tuple(COLUMN_TYPES)
 #: Columns that identify one trial within a sweep; the newest record of each such group is kept.
 #: Beyond (task, variant, planner, seed, sweep_dir), hand, preset and the planner settings are part of
 #: the key so that a sweep over, e.g., ``planner.num_samples`` keeps every setting.
@@ -281,32 +285,15 @@ def write_table(df: pd.DataFrame, path: str | Path) -> Path:
 
 def _coerce(df: pd.DataFrame) -> pd.DataFrame:
     df = df.copy()
-    for col in ("seed", "schema", "num_control_points", "num_plans", "diverged_rollouts", "num_samples"):
-        df[col] = pd.to_numeric(df[col], errors="coerce").astype("Int64")
-    for col in (
-        "ttf",
-        "failure_time",
-        "contact_span_start",
-        "contact_span_end",
-        "object_position_error_mean",
-        "object_rotation_error_mean",
-        "object_articulation_error_mean",
-        "final_object_position_error",
-        "final_object_rotation_error",
-        "final_object_articulation_error",
-        "contact_fraction",
-        "plan_seconds_mean",
-        "plan_seconds_p95",
-        "simulated_seconds",
-        "wall_seconds",
-        "real_time_factor",
-        "horizon",
-        "replan_period",
-    ):
-        df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
-    for col in ("failed", "completed"):
-        df[col] = df[col].map(lambda x: pd.NA if _missing(x) else bool(x)).astype("boolean")
-    df["record_mtime"] = pd.to_datetime(df["record_mtime"])
+    for col, kind in COLUMN_TYPES.items():
+        if kind == "Int64":
+            df[col] = pd.to_numeric(df[col], errors="coerce").astype("Int64")
+        elif kind == "float":
+            df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
+        elif kind == "boolean":
+            df[col] = df[col].map(lambda x: pd.NA if _missing(x) else bool(x)).astype("boolean")
+        elif kind == "datetime":
+            df[col] = pd.to_datetime(df[col])
     return df
 
 
