@@ -11,11 +11,11 @@ import argparse
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m analysis",
-        description="Read the trial records of sweeps; write results.csv, fig3.png and results.md.",
+    from analysis._cli import sweep_parser
+
+    parser = sweep_parser(
+        "python -m analysis", "Read the trial records of sweeps; write results.csv, fig3.png and results.md."
     )
-    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR", help="sweep directories to read")
     parser.add_argument("--out-dir", default="results", help="output directory; default %(default)s")
     parser.add_argument(
         "--parquet", action="store_true", help="write results.parquet instead of results.csv (needs pyarrow)"
@@ -26,14 +26,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis``; returns the exit status."""
-    from analysis._cli import fail, load_for_cli
+    from analysis._cli import run
     from analysis.report import write_all
 
     args = build_parser().parse_args(argv)
-    df = load_for_cli(args.sweep_dirs)
-    if df is None:
-        return 2
-    try:
+
+    def action(df) -> str:
         written = write_all(
             df,
             args.out_dir,
@@ -41,10 +39,9 @@ def main(argv: list[str] | None = None) -> int:
             table_name="results.parquet" if args.parquet else "results.csv",
             alpha=args.alpha,
         )
-    except (OSError, RuntimeError, ValueError) as err:
-        return fail(err)
-    print(f"wrote {', '.join(map(str, written))} ({len(df)} trials)")
-    return 0
+        return f"wrote {', '.join(map(str, written))} ({len(df)} trials)"
+
+    return run(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
 
 
 if __name__ == "__main__":

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import pandas as pd
 
@@ -40,3 +41,38 @@ def load_for_cli(dirs: Sequence[str], dedupe: bool = True) -> pd.DataFrame | Non
         fail(f"no readable {RECORD_NAME} records under {', '.join(map(str, dirs))}")
         return None
     return df
+
+
+def sweep_parser(prog: str, description: str) -> argparse.ArgumentParser:
+    """An argument parser with the ``SWEEP_DIR ...`` positional every analysis command takes."""
+    parser = argparse.ArgumentParser(prog=prog, description=description)
+    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR", help="sweep directories to read")
+    return parser
+
+
+def run(
+    sweep_dirs: Sequence[str],
+    action: Callable[[pd.DataFrame], str],
+    errors: tuple[type[BaseException], ...],
+    dedupe: bool = True,
+) -> int:
+    """Load the records, run ``action`` on the table and print the line it returns.
+
+    Args:
+        sweep_dirs: the directories to read.
+        action: writes the command's output from the table; returns the line to print.
+        errors: exceptions of ``action`` reported as one ``error: ...`` line.
+        dedupe: drop repeated trials (see :func:`~analysis.aggregate.load_records`).
+
+    Returns:
+        The exit status: 0, or 2 after an error.
+    """
+    df = load_for_cli(sweep_dirs, dedupe=dedupe)
+    if df is None:
+        return 2
+    try:
+        message = action(df)
+    except errors as err:
+        return fail(err)
+    print(message)
+    return 0

@@ -307,11 +307,12 @@ def _one_line(err: BaseException) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis.aggregate``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m analysis.aggregate",
-        description="Collect the trial.json records under sweep directories into one table.",
+    from analysis._cli import sweep_parser
+
+    parser = sweep_parser(
+        "python -m analysis.aggregate",
+        "Collect the trial.json records under sweep directories into one table.",
     )
-    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR", help="sweep directories to read")
     parser.add_argument(
         "--out",
         default="results.csv",
@@ -325,18 +326,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis.aggregate``; returns the exit status."""
-    from analysis._cli import fail, load_for_cli
+    from analysis._cli import run
 
     args = build_parser().parse_args(argv)
-    df = load_for_cli(args.sweep_dirs, dedupe=not args.keep_duplicates)
-    if df is None:
-        return 2
-    try:
-        out = write_table(df, args.out)
-    except (OSError, RuntimeError) as err:
-        return fail(err)
-    print(f"wrote {out} ({len(df)} trials)")
-    return 0
+
+    def action(df: pd.DataFrame) -> str:
+        return f"wrote {write_table(df, args.out)} ({len(df)} trials)"
+
+    return run(args.sweep_dirs, action, (OSError, RuntimeError), dedupe=not args.keep_duplicates)
 
 
 if __name__ == "__main__":

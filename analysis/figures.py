@@ -154,11 +154,12 @@ def ttf_boxplot(df: pd.DataFrame, path: str | Path | None = None, *, title: str 
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis.figures``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m analysis.figures",
-        description="Draw the time-to-failure box plot (paper Fig. 3) of the trials under sweep directories.",
+    from analysis._cli import sweep_parser
+
+    parser = sweep_parser(
+        "python -m analysis.figures",
+        "Draw the time-to-failure box plot (paper Fig. 3) of the trials under sweep directories.",
     )
-    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR", help="sweep directories to read")
     parser.add_argument(
         "--out", default="fig3.png", help="output image (.png, .pdf, .svg); default %(default)s"
     )
@@ -168,18 +169,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis.figures``; returns the exit status."""
-    from analysis._cli import fail, load_for_cli
+    from analysis._cli import run
 
     args = build_parser().parse_args(argv)
-    df = load_for_cli(args.sweep_dirs)
-    if df is None:
-        return 2
-    try:
+
+    def action(df: pd.DataFrame) -> str:
         ttf_boxplot(df, args.out, title=args.title)
-    except (OSError, ValueError) as err:
-        return fail(err)
-    print(f"wrote {args.out} ({len(ok_trials(df))} of {len(df)} trials counted)")
-    return 0
+        return f"wrote {args.out} ({len(ok_trials(df))} of {len(df)} trials counted)"
+
+    return run(args.sweep_dirs, action, (OSError, ValueError))
 
 
 if __name__ == "__main__":

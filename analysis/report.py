@@ -355,11 +355,12 @@ def _p(p: float) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis.report``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m analysis.report",
-        description="Write a Markdown report (per task × variant statistics, full vs ablation tests).",
+    from analysis._cli import sweep_parser
+
+    parser = sweep_parser(
+        "python -m analysis.report",
+        "Write a Markdown report (per task × variant statistics, full vs ablation tests).",
     )
-    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR", help="sweep directories to read")
     parser.add_argument("--out", default="results.md", help="Markdown report; default %(default)s")
     parser.add_argument("--csv", default=None, help="also write the table here (.csv or .parquet)")
     parser.add_argument("--figure", default=None, help="also draw the TTF box plot here and embed it")
@@ -369,20 +370,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis.report``; returns the exit status."""
-    from analysis._cli import fail, load_for_cli
+    from analysis._cli import run
 
     args = build_parser().parse_args(argv)
-    df = load_for_cli(args.sweep_dirs)
-    if df is None:
-        return 2
-    try:
+
+    def action(df: pd.DataFrame) -> str:
         written = write_report(
             df, args.out, sweep_dirs=args.sweep_dirs, csv=args.csv, figure=args.figure, alpha=args.alpha
         )
-    except (OSError, RuntimeError, ValueError) as err:
-        return fail(err)
-    print(f"wrote {', '.join(map(str, written))} ({len(df)} trials)")
-    return 0
+        return f"wrote {', '.join(map(str, written))} ({len(df)} trials)"
+
+    return run(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
 
 
 if __name__ == "__main__":
