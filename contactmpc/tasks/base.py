@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-JOINT_WIDTH = {"free": 7, "hinge": 1, "slide": 1}
+JOINT_WIDTH = {"free": 7, "hinge": 1, "slide": 1}  # entries in qpos
+DOF_WIDTH = {"free": 6, "hinge": 1, "slide": 1}  # entries in qvel
 
 
 @dataclass(frozen=True)
@@ -177,23 +178,19 @@ class Task:
 
     def qo_qpos_indices(self, model: mujoco.MjModel) -> np.ndarray:
         """(n_o,) indices into ``qpos`` that make up ``q_o``, resolved by joint name."""
+        return self._joint_indices(model, model.jnt_qposadr, JOINT_WIDTH)
+
+    def qo_dof_indices(self, model: mujoco.MjModel) -> np.ndarray:
+        """(nv_o,) indices into ``qvel`` of the object joints."""
+        return self._joint_indices(model, model.jnt_dofadr, DOF_WIDTH)
+
+    def _joint_indices(self, model: mujoco.MjModel, address: np.ndarray, width: dict[str, int]) -> np.ndarray:
         idx = []
         for j in self.object_joints:
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             if jid < 0:
                 raise ValueError(f"task {self.name}: object joint {j.name!r} not in the model")
-            adr = model.jnt_qposadr[jid]
-            idx.extend(range(adr, adr + JOINT_WIDTH[j.kind]))
-        return np.asarray(idx, dtype=int)
-
-    def qo_dof_indices(self, model: mujoco.MjModel) -> np.ndarray:
-        """(nv_o,) indices into ``qvel`` of the object joints."""
-        width = {"free": 6, "hinge": 1, "slide": 1}
-        idx = []
-        for j in self.object_joints:
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-            adr = model.jnt_dofadr[jid]
-            idx.extend(range(adr, adr + width[j.kind]))
+            idx.extend(range(address[jid], address[jid] + width[j.kind]))
         return np.asarray(idx, dtype=int)
 
     def object_error(self, qo_a: np.ndarray, qo_b: np.ndarray) -> ObjectError:
