@@ -162,7 +162,7 @@ class CEMConf(PlannerConf):
 
 @dataclass
 class TrialJobConf:
-    _target_: str = "contactmpc.jobs.run_trial"
+    _target_: str = "contactmpc.jobs.trial.run_trial"
     _partial_: bool = True
     sampler: Any = "${sampler}"
     cost: Any = "${cost}"
@@ -179,7 +179,7 @@ class TrialJobConf:
 
 @dataclass
 class BenchmarkJobConf:
-    _target_: str = "contactmpc.bench.benchmark_planner"
+    _target_: str = "contactmpc.jobs.benchmark.benchmark_planner"
     _partial_: bool = True
     sampler: Any = "${sampler}"
     cost: Any = "${cost}"
@@ -192,20 +192,20 @@ class BenchmarkJobConf:
 
 @dataclass
 class WriteReferenceJobConf:
-    _target_: str = "contactmpc.jobs.write_reference"
+    _target_: str = "contactmpc.jobs.write_reference.write_reference"
     _partial_: bool = True
     path: str | None = None
 
 
 @dataclass
 class ReferenceReportJobConf:
-    _target_: str = "contactmpc.jobs.reference_report"
+    _target_: str = "contactmpc.jobs.reference_report.reference_report"
     _partial_: bool = True
 
 
 @dataclass
 class FilmstripJobConf:
-    _target_: str = "contactmpc.jobs.reference_filmstrip"
+    _target_: str = "contactmpc.jobs.filmstrip.reference_filmstrip"
     _partial_: bool = True
     num_frames: int = 7
     size: list[int] = field(default_factory=lambda: [240, 320])
@@ -214,7 +214,7 @@ class FilmstripJobConf:
 
 @dataclass
 class RenderSceneJobConf:
-    _target_: str = "contactmpc.render.render_scene"
+    _target_: str = "contactmpc.jobs.render_scene.render_scene"
     _partial_: bool = True
     size: list[int] = field(default_factory=lambda: [480, 640])
 

@@ -17,7 +17,7 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # headless by default; read when the first context is made
 
-from collections.abc import Callable, Mapping, Sequence  # noqa: E402
+from collections.abc import Mapping, Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import imageio.v3 as iio  # noqa: E402
@@ -93,28 +93,6 @@ def render_frame(
     finally:
         if own:
             r.close()
-
-
-def render_scene(
-    make_scene: Callable[[], Scene], output_dir: str | Path, size: tuple[int, int] = (480, 640), **_
-) -> Path:
-    """Render the task's scene with the hand in its initial pose to ``<output_dir>/scene_<task>.png``.
-
-    Args:
-        make_scene: builds the scene (``launch.py`` passes one built from the config).
-        output_dir: where the PNG goes.
-        size: (height, width) in pixels.
-
-    Returns:
-        The path of the written PNG.
-    """
-    scene = make_scene()
-    data = scene.make_data()
-    img = render_frame(scene.plant_model, data, task_camera(scene), size)
-    path = Path(output_dir) / f"scene_{scene.task.name}.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    iio.imwrite(path, img)
-    return path
 
 
 # ---------------------------------------------------------------------------------------- overlays
@@ -304,10 +282,11 @@ def render_reference_filmstrip(
         renderer.close()
     gap = np.full((size[0], 4, 3), 255, np.uint8)
     strip = np.concatenate([x for p in panels for x in (gap, p)][1:], axis=1)
-    return _write_png(strip, path)
+    return write_png(strip, path)
 
 
-def _write_png(img: np.ndarray, path: str | Path) -> Path:
+def write_png(img: np.ndarray, path: str | Path) -> Path:
+    """Write an (H, W, 3) uint8 image as a PNG, creating the directory; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     iio.imwrite(path, img)
@@ -319,7 +298,7 @@ def _as_track(scene: Scene, track_or_reference: ReferenceTrack | Reference) -> R
     if isinstance(track_or_reference, ReferenceTrack):
         return track_or_reference
     return ReferenceTrack.build(
-        track_or_reference, scene.task.object_joints, scene.task.time_scale, scene.planner_timestep, 0.0
+        track_or_reference, scene.task.layout, scene.task.time_scale, scene.planner_timestep, 0.0
     )
 
 

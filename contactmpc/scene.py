@@ -7,12 +7,13 @@ the rest of the library needs are resolved to ids and array addresses once, here
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from contactmpc.hands.allegro import AllegroHand
+from contactmpc.hands.base import Hand
 from contactmpc.tasks.base import Task
 
 
@@ -24,13 +25,18 @@ class SceneError(RuntimeError):
 class SceneIndex:
     """Ids and addresses resolved once from names (identical in the plant and planning models).
 
+    ``J`` is the hand's number of joints, ``L`` its number of contact links, ``B`` the task's number
+    of object bodies, ``n_o`` the width of ``q_o`` and ``A`` its number of articulations.
+
     Attributes:
-        hand_qpos: (22,) qpos addresses of the hand joints, in the hand's joint order.
-        hand_dof: (22,) qvel addresses of the hand joints.
-        actuators: (22,) actuator ids, in the hand's joint order.
+        hand_qpos: (J,) qpos addresses of the hand joints, in the hand's joint order.
+        hand_dof: (J,) qvel addresses of the hand joints.
+        actuators: (J,) actuator ids, in the hand's joint order.
+        root_body: body id of the hand's root (the wrist's moving body).
         object_qpos: (n_o,) qpos addresses of ``q_o``.
         object_dof: (nv_o,) qvel addresses of the object joints.
         link_bodies: (L,) body ids of the hand's contact links.
+        link_geoms: (L,) id of each link's collision geom.
         link_pos: (L, 3) sensordata addresses of each link's world position.
         link_quat: (L, 4) sensordata addresses of each link's world orientation (w x y z).
         object_bodies: (B,) body ids of the task's object bodies.
@@ -38,7 +44,7 @@ class SceneIndex:
         object_quat: (B, 4) sensordata addresses of each object body's world orientation.
         object_joint_pos: (A,) sensordata addresses of the object's articulation angles (hinge/slide
             joints of ``q_o``, in ``q_o`` order).
-        hand_vel: (22,) sensordata addresses of the hand joint velocities.
+        hand_vel: (J,) sensordata addresses of the hand joint velocities.
         object_qo: (n_o,) sensordata addresses that read ``q_o`` directly: a free joint's body
             position and quaternion, then articulation angles, in ``q_o`` order.
         object_geom_mask: (ngeom,) True for geoms that belong to the object (object bodies and
@@ -49,9 +55,11 @@ class SceneIndex:
     hand_qpos: np.ndarray
     hand_dof: np.ndarray
     actuators: np.ndarray
+    root_body: int
     object_qpos: np.ndarray
     object_dof: np.ndarray
     link_bodies: np.ndarray
+    link_geoms: np.ndarray
     link_pos: np.ndarray
     link_quat: np.ndarray
     object_bodies: np.ndarray
@@ -63,17 +71,78 @@ class SceneIndex:
     object_geom_mask: np.ndarray
     link_of_geom: np.ndarray
 
+    @classmethod
+    def resolve(cls, m: mujoco.MjModel, hand: Hand, task: Task) -> SceneIndex:
+        """Resolve every name of ``hand`` and ``task`` in the compiled model ``m``.
 
-def _id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str, what: str) -> int:
-    i = mujoco.mj_name2id(model, kind, name)
-    if i < 0:
-        raise SceneError(f"{what} {name!r} not found in the compiled scene")
-    return i
+        Raises:
+            SceneError: naming what is missing.
+        """
+        body, joint, geom = mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_JOINT, mujoco.mjtObj.mjOBJ_GEOM
+        jid = ids(m, joint, hand.joint_names, "hand joint")
+        links = ids(m, body, hand.link_names, "hand link")
+        obj = ids(m, body, task.object_bodies, "object body")
+        # Object bodies and their descendants (e.g. the door's bolt) count as "the object".
+        is_object = np.zeros(m.nbody, bool)
+        is_object[obj] = True
+        for b in range(1, m.nbody):  # parents precede children in MuJoCo's body order
+            is_object[b] |= is_object[m.body_parentid[b]]
+        link_index = -np.ones(m.nbody, int)
+        link_index[links] = np.arange(len(links))
+        try:
+            object_qpos = task.layout.qpos_indices(m)
+            object_dof = task.layout.dof_indices(m)
+            qo_sensors = task.layout.sensors(m)
+        except ValueError as err:
+            raise SceneError(f"task {task.name!r}: {err}") from err
+        return cls(
+            hand_qpos=m.jnt_qposadr[jid].copy(),
+            hand_dof=m.jnt_dofadr[jid].copy(),
+            actuators=ids(m, mujoco.mjtObj.mjOBJ_ACTUATOR, hand.actuator_names, "actuator"),
+            root_body=int(ids(m, body, [hand.root_body], "hand root body")[0]),
+            object_qpos=object_qpos,
+            object_dof=object_dof,
+            link_bodies=links,
+            link_geoms=ids(m, geom, hand.link_geoms, "hand link geom"),
+            link_pos=np.stack([_sensor_adr(m, f"{n}_pos", 3) for n in hand.link_names]),
+            link_quat=np.stack([_sensor_adr(m, f"{n}_quat", 4) for n in hand.link_names]),
+            object_bodies=obj,
+            object_pos=np.stack([_sensor_adr(m, f"{n}_pos", 3) for n in task.object_bodies]),
+            object_quat=np.stack([_sensor_adr(m, f"{n}_quat", 4) for n in task.object_bodies]),
+            object_joint_pos=np.asarray(
+                [_sensor_adr(m, f"{j}_pos", 1)[0] for j in task.layout.articulation_joints], dtype=int
+            ),
+            hand_vel=np.concatenate([_sensor_adr(m, f"{n}_vel", 1) for n in hand.joint_names]),
+            object_qo=np.concatenate([_sensor_adr(m, name, w) for name, w in qo_sensors]).astype(int),
+            object_geom_mask=is_object[m.geom_bodyid],
+            link_of_geom=link_index[m.geom_bodyid],
+        )
+
+
+def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names: Sequence[str], what: str) -> np.ndarray:
+    """Resolve MuJoCo names to ids.
+
+    Args:
+        model: compiled model.
+        kind: object type, e.g. ``mujoco.mjtObj.mjOBJ_BODY``.
+        names: (n,) names.
+        what: what the names are, for the error message.
+
+    Returns:
+        (n,) int array of ids, in the order of ``names``.
+
+    Raises:
+        SceneError: naming every missing name.
+    """
+    out = np.array([mujoco.mj_name2id(model, kind, n) for n in names], dtype=int)
+    missing = [n for n, i in zip(names, out, strict=True) if i < 0]
+    if missing:
+        raise SceneError(f"{what} {', '.join(map(repr, missing))} not found in the compiled scene")
+    return out
 
 
 def _sensor_adr(model: mujoco.MjModel, name: str, width: int) -> np.ndarray:
-    sid = _id(model, mujoco.mjtObj.mjOBJ_SENSOR, name, "sensor")
-    adr = model.sensor_adr[sid]
+    adr = model.sensor_adr[ids(model, mujoco.mjtObj.mjOBJ_SENSOR, [name], "sensor")[0]]
     return np.arange(adr, adr + width)
 
 
@@ -81,7 +150,7 @@ class Scene:
     """A hand and a task composed into the plant model and the planning model.
 
     Args:
-        hand: the hand builder.
+        hand: the hand (any :class:`~contactmpc.hands.base.Hand`).
         task: the task (fixtures, objects, ``q_o``).
         plant_timestep: physics step of the plant (s); paper 1 ms.
         planner_timestep: physics step of the planning model (s); paper 10 ms.
@@ -96,7 +165,7 @@ class Scene:
 
     def __init__(
         self,
-        hand: AllegroHand,
+        hand: Hand,
         task: Task,
         plant_timestep: float = 0.001,
         planner_timestep: float = 0.01,
@@ -108,6 +177,11 @@ class Scene:
         if not 0 < plant_timestep <= planner_timestep:
             raise SceneError(
                 f"timesteps must satisfy 0 < plant ({plant_timestep}) <= planner ({planner_timestep})"
+            )
+        if len(task.hand_home) != hand.num_joints:
+            raise SceneError(
+                f"task {task.name!r}: hand_home has {len(task.hand_home)} entries, but hand {hand.name!r} "
+                f"has {hand.num_joints} joints ({', '.join(hand.joint_names)})"
             )
         self.hand = hand
         self.task = task
@@ -150,7 +224,7 @@ class Scene:
         except Exception as err:  # MjSpec raises ValueError for compile errors
             msg = " ".join(str(err).split())
             raise SceneError(f"task {task.name!r}: scene failed to compile: {msg}") from err
-        self.index = self._resolve(self.plant_model)
+        self.index = SceneIndex.resolve(self.plant_model, hand, task)
 
     def _add_look(self) -> None:
         """Skybox and a checkered floor material (``floor_mat``) that tasks may use."""
@@ -179,53 +253,6 @@ class Scene:
         self.spec.option.timestep = timestep
         return self.spec.compile()
 
-    def _resolve(self, m: mujoco.MjModel) -> SceneIndex:
-        jid = [_id(m, mujoco.mjtObj.mjOBJ_JOINT, n, "hand joint") for n in self.hand.joint_names]
-        links = [_id(m, mujoco.mjtObj.mjOBJ_BODY, n, "hand link") for n in self.hand.link_names]
-        obj = [_id(m, mujoco.mjtObj.mjOBJ_BODY, n, "object body") for n in self.task.object_bodies]
-        # Object bodies and their descendants (e.g. the door's bolt) count as "the object".
-        is_object = np.zeros(m.nbody, bool)
-        is_object[obj] = True
-        for b in range(1, m.nbody):  # parents precede children in MuJoCo's body order
-            is_object[b] |= is_object[m.body_parentid[b]]
-        link_index = -np.ones(m.nbody, int)
-        link_index[links] = np.arange(len(links))
-        return SceneIndex(
-            hand_qpos=m.jnt_qposadr[jid].copy(),
-            hand_dof=m.jnt_dofadr[jid].copy(),
-            actuators=np.array(
-                [_id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n, "actuator") for n in self.hand.actuator_names]
-            ),
-            object_qpos=self.task.qo_qpos_indices(m),
-            object_dof=self.task.qo_dof_indices(m),
-            link_bodies=np.asarray(links),
-            link_pos=np.stack([_sensor_adr(m, f"{n}_pos", 3) for n in self.hand.link_names]),
-            link_quat=np.stack([_sensor_adr(m, f"{n}_quat", 4) for n in self.hand.link_names]),
-            object_bodies=np.asarray(obj),
-            object_pos=np.stack([_sensor_adr(m, f"{n}_pos", 3) for n in self.task.object_bodies]),
-            object_quat=np.stack([_sensor_adr(m, f"{n}_quat", 4) for n in self.task.object_bodies]),
-            object_joint_pos=np.asarray(
-                [_sensor_adr(m, f"{j.name}_pos", 1)[0] for j in self.task.object_joints if j.kind != "free"],
-                dtype=int,
-            ),
-            hand_vel=np.concatenate([_sensor_adr(m, f"{n}_vel", 1) for n in self.hand.joint_names]),
-            object_qo=self._qo_sensors(m),
-            object_geom_mask=is_object[m.geom_bodyid],
-            link_of_geom=link_index[m.geom_bodyid],
-        )
-
-    def _qo_sensors(self, m: mujoco.MjModel) -> np.ndarray:
-        adr = []
-        for j in self.task.object_joints:
-            if j.kind == "free":
-                jid = _id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name, "object joint")
-                body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, m.jnt_bodyid[jid])
-                adr.extend(_sensor_adr(m, f"{body}_pos", 3))
-                adr.extend(_sensor_adr(m, f"{body}_quat", 4))
-            else:
-                adr.extend(_sensor_adr(m, f"{j.name}_pos", 1))
-        return np.asarray(adr, dtype=int)
-
     # --- state ---------------------------------------------------------------------------------
     def reset(
         self,
@@ -237,7 +264,7 @@ class Scene:
 
         Args:
             data: data of the plant or the planning model.
-            hand_qpos: (22,) hand configuration; defaults to the task's ``hand_home``.
+            hand_qpos: (J,) hand configuration; defaults to the task's ``hand_home``.
             object_qpos: (n_o,) object configuration; defaults to the task's initial one.
         """
         m = data.model
@@ -256,7 +283,7 @@ class Scene:
         return data
 
     def hand_qpos(self, data: mujoco.MjData) -> np.ndarray:
-        """(22,) the hand configuration of ``data``."""
+        """(J,) the hand configuration of ``data``."""
         return data.qpos[self.index.hand_qpos].copy()
 
     def object_qpos(self, data: mujoco.MjData) -> np.ndarray:

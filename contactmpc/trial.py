@@ -15,9 +15,8 @@ from tqdm.auto import tqdm
 
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
+from contactmpc.control.problem import Problem
 from contactmpc.control.samplers import SplineSpace
-from contactmpc.control.track import ReferenceTrack
-from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.data import Reference
 from contactmpc.scene import Scene
 
@@ -33,14 +32,15 @@ class TrialLog:
     Attributes:
         time: (N,) control time (s).
         qpos: (N, nq) the plant's full configuration (for rendering the trial afterwards).
-        hand_qpos: (N, 22) plant hand configuration.
-        hand_target: (N, 22) joint targets sent to the actuators.
+        hand_qpos: (N, J) plant hand configuration.
+        hand_target: (N, J) joint targets sent to the actuators.
         object_qpos: (N, n_o) plant object configuration.
         expected_object_qpos: (N, n_o) reference object configuration at that time.
         contacts: (N, L) links touching the object.
         expected_contacts: (N, L) links expected in contact by the reference.
         object_position_error / object_rotation_error / object_articulation_error: (N,).
-        cost_object / cost_contact / cost_velocity: (N,) cumulative terms of the committed sample.
+        cost_<term>: (N,) each cumulative cost term of the committed sample (``cost_object``,
+            ``cost_contact``, ``cost_velocity`` for :class:`~contactmpc.control.cost.TrackingCost`).
         plan_seconds: (N,) wall time of the planning iteration.
         num_diverged: (N,) diverged rollouts of the iteration.
     """
@@ -84,30 +84,16 @@ class Trial:
         duration: float | None = None,
         progress: bool = True,
     ) -> None:
-        self.scene, self.reference, self.space, self.cost, self.planner = (
-            scene,
-            reference,
-            space,
-            cost,
-            planner,
-        )
+        self.scene, self.reference, self.planner = scene, reference, planner
         self.seed = int(seed)
         self.progress = progress
-        task = scene.task
-        padding = planner.horizon + max(0.0, (duration or 0.0) - reference.duration * task.time_scale) + 0.1
-        self.track = ReferenceTrack.build(
-            reference, task.object_joints, task.time_scale, scene.planner_timestep, padding
+        self.problem = Problem.build(
+            scene, reference, space, cost, planner.horizon, num_control_points, duration
         )
-        self.duration = float(self.track.duration if duration is None else duration)
-        if num_control_points is None:
-            num_control_points = reference.meta.get("num_control_points") or max(
-                8, int(round(4 * self.track.duration))
-            )
-        self.spline = UniformBSpline(int(num_control_points), (0.0, self.track.duration))
-        ranges = scene.plant_model.actuator_ctrlrange[scene.index.actuators]
-        theta0 = space.bind(self.spline, self.track.hand_times, reference.hand_qpos, ranges)
-        cost.bind(scene, self.track)
-        planner.bind(scene, self.track, space, cost, self.spline, theta0)
+        self.track = self.problem.track
+        self.spline = self.problem.spline
+        self.duration = self.problem.duration
+        planner.bind(self.problem)
 
     def run(self) -> TrialLog:
         """Simulate the closed loop for ``duration`` seconds of control time.
@@ -126,7 +112,7 @@ class Trial:
         dt = m.opt.timestep
         per_plan = max(1, int(round(planner.replan_period / dt)))
         n_steps = int(round(self.duration / dt))
-        hand0 = self.space.controls(planner.theta, self.spline.basis(np.array([0.0])))[0]
+        hand0 = planner.targets(np.array([0.0]))[0]
         scene.reset(d, hand_qpos=hand0, object_qpos=self.reference.object_qpos[0])
         nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         state = np.empty(nstate)
@@ -141,7 +127,7 @@ class Trial:
                 mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
                 state[0] = t  # rollouts run on the control clock
                 info = planner.plan(t, state, rng)
-                targets = self.space.controls(planner.theta, self.spline.basis(t + offsets))
+                targets = planner.targets(t + offsets)
                 self._log(log, d, t, targets[0], info)
                 for j in range(min(per_plan, n_steps - k)):
                     d.ctrl[idx.actuators] = targets[j]
@@ -157,7 +143,7 @@ class Trial:
         scene, tr = self.scene, self.track
         i = tr.index(t)
         qo = scene.object_qpos(d)
-        err = scene.task.object_error(qo, tr.object_qpos[i])
+        err = scene.task.layout.error(qo, tr.object_qpos[i])
         log.append(
             time=t,
             qpos=d.qpos,
@@ -170,9 +156,7 @@ class Trial:
             object_position_error=err.position,
             object_rotation_error=err.rotation,
             object_articulation_error=err.articulation,
-            cost_object=info.terms.get("object", np.nan),
-            cost_contact=info.terms.get("contact", np.nan),
-            cost_velocity=info.terms.get("velocity", np.nan),
+            **{f"cost_{name}": value for name, value in info.terms.items()},
             best_cost=info.best_cost,
             nominal_cost=info.nominal_cost,
             plan_seconds=info.seconds,

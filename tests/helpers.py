@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import mujoco
 import numpy as np
 
+from contactmpc.control.problem import Problem
 from contactmpc.control.rollout import RolloutEngine
 from contactmpc.reference import Reference
 from contactmpc.reference.bspline import UniformBSpline
@@ -21,13 +22,13 @@ def static_reference(scene, duration: float = 1.0, frames: int = 26, active_link
     hand = scene.hand
     t = np.linspace(0.0, duration, frames)
     hq = np.tile(scene.task.hand_home, (frames, 1))
-    hq[:, 6:] += 0.3 * np.sin(np.pi * t / duration)[:, None] * np.linspace(0.2, 1.0, 16)
-    hq[:, 6:] = np.clip(hq[:, 6:], hand.joint_ranges[6:, 0], hand.joint_ranges[6:, 1])
+    fingers, ranges = slice(hand.num_root, None), hand.finger_ranges
+    hq[:, fingers] += 0.3 * np.sin(np.pi * t / duration)[:, None] * np.linspace(0.2, 1.0, hand.num_fingers)
+    hq[:, fingers] = np.clip(hq[:, fingers], ranges[:, 0], ranges[:, 1])
     qo = np.tile(scene.task.initial_object_qpos(scene.plant_model), (frames, 1))
     L = len(hand.link_names)
     active = np.zeros((frames, L), bool)
     active[:, :active_links] = True
-    quat = next((i for i, j in enumerate(_columns(scene.task)) if j == "free"), None)
     return Reference(
         time=t,
         hand_qpos=hq,
@@ -40,16 +41,8 @@ def static_reference(scene, duration: float = 1.0, frames: int = 26, active_link
         joint_names=np.array(hand.joint_names),
         object_bodies=np.array(scene.task.object_bodies),
         task=scene.task.name,
-        meta={"source": "test", "object_quat_index": None if quat is None else quat + 3},
+        meta={"source": "test", "object_quat_index": scene.task.layout.quat_index},
     )
-
-
-def _columns(task):
-    """Kind of each q_o block's first column (free blocks start with their position)."""
-    out = []
-    for j in task.object_joints:
-        out.extend([j.kind] + [""] * ((7 if j.kind == "free" else 1) - 1))
-    return out
 
 
 POINT_MASS = """
@@ -102,7 +95,8 @@ class PointMassProblem:
 
     def bind(self, planner) -> None:
         planner.engine = self.engine
-        planner.bind(self.scene, self.track, self.space, self.cost, self.spline, np.zeros((6, 2)))
+        problem = Problem(self.scene, self.track, self.spline, self.space, self.cost, np.zeros((6, 2)), 1.0)
+        planner.bind(problem)
 
     def final_distance(self, planner) -> float:
         """Distance to the goal at the end of the horizon, rolling out the committed nominal."""

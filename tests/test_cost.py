@@ -22,7 +22,7 @@ def test_contact_and_object_terms_match_mjdata(scene_for, task):
     ref.contact_link_point[:] = rng.normal(0, 0.02, ref.contact_link_point.shape)
     ref.contact_object_point[:] = rng.normal(0, 0.02, ref.contact_object_point.shape)
     ref.contact_object_body[:] = rng.integers(0, len(scene.task.object_bodies), ref.contact_object_body.shape)
-    track = ReferenceTrack.build(ref, scene.task.object_joints, scene.task.time_scale, m.opt.timestep, 1.0)
+    track = ReferenceTrack.build(ref, scene.task.layout, scene.task.time_scale, m.opt.timestep, 1.0)
     cost = TrackingCost(lambda_o=1.0, lambda_c=1.0, lambda_v=0.1)
     cost.bind(scene, track)
 
@@ -57,7 +57,7 @@ def test_contact_and_object_terms_match_mjdata(scene_for, task):
                 direct += float(np.sum((xl - xo) ** 2))
             assert contact[s, h] == pytest.approx(direct, rel=1e-9, abs=1e-12)
             assert terms["contact"][s, h] == pytest.approx(direct, rel=1e-9, abs=1e-12)
-            err = scene.task.object_error(scene.object_qpos(data), track.object_qpos[g])
+            err = scene.task.layout.error(scene.object_qpos(data), track.object_qpos[g])
             direct_obj = err.position**2 + cost.rotation_weight * err.rotation**2
             direct_obj += cost.articulation_weight * err.articulation**2
             assert terms["object"][s, h] == pytest.approx(direct_obj, rel=1e-7, abs=1e-12)
@@ -71,7 +71,7 @@ def test_contact_and_object_terms_match_mjdata(scene_for, task):
 def test_object_only_cost_has_no_contact_term(scene_for):
     scene = scene_for("apple")
     ref = static_reference(scene)
-    track = ReferenceTrack.build(ref, scene.task.object_joints, 5.0, 0.01, 1.0)
+    track = ReferenceTrack.build(ref, scene.task.layout, 5.0, 0.01, 1.0)
     cost = TrackingCost(lambda_c=0.0)
     cost.bind(scene, track)
     sd = np.zeros((2, 5, scene.planner_model.nsensordata))

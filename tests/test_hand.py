@@ -7,7 +7,41 @@ import numpy as np
 import pytest
 
 from contactmpc.hands import AllegroHand
-from contactmpc.hands.allegro import name2ids
+from contactmpc.scene import SceneError, ids
+
+_OBJ = mujoco.mjtObj
+
+
+# ---------------------------------------------------------------- ids of a hand-only model
+def joint_ids(hand, model) -> np.ndarray:
+    return ids(model, _OBJ.mjOBJ_JOINT, hand.joint_names, "joint")
+
+
+def qpos_adr(hand, model) -> np.ndarray:
+    return model.jnt_qposadr[joint_ids(hand, model)]
+
+
+def dof_adr(hand, model) -> np.ndarray:
+    return model.jnt_dofadr[joint_ids(hand, model)]
+
+
+def actuator_ids(hand, model) -> np.ndarray:
+    return ids(model, _OBJ.mjOBJ_ACTUATOR, hand.actuator_names, "actuator")
+
+
+def link_body_ids(hand, model) -> np.ndarray:
+    return ids(model, _OBJ.mjOBJ_BODY, hand.link_names, "link")
+
+
+def link_geom_ids(hand, model) -> np.ndarray:
+    return ids(model, _OBJ.mjOBJ_GEOM, hand.link_geoms, "link geom")
+
+
+def link_sensor_adr(hand, model) -> tuple[np.ndarray, np.ndarray]:
+    pos = ids(model, _OBJ.mjOBJ_SENSOR, [f"{n}_pos" for n in hand.link_names], "sensor")
+    quat = ids(model, _OBJ.mjOBJ_SENSOR, [f"{n}_quat" for n in hand.link_names], "sensor")
+    return model.sensor_adr[pos], model.sensor_adr[quat]
+
 
 # ---------------------------------------------------------------- independent kinematics (DESIGN.md §3)
 # body: (parent, pos, quat (w x y z), joint, axis); copied from the DESIGN table, not from the builder.
@@ -90,22 +124,23 @@ def model(hand):
 
 # ---------------------------------------------------------------- tests
 def test_compiles_and_names_resolve(hand, model):
-    assert len(hand.JOINTS) == 22 and len(hand.LINKS) == 21 and len(hand.ACTUATORS) == 22
+    assert hand.num_joints == 22 and hand.num_root == 6 and hand.num_fingers == 16
+    assert len(hand.link_names) == 21 and len(hand.actuator_names) == 22
     assert model.nq == 22 and model.nv == 22 and model.nu == 22
-    assert len(set(hand.link_body_ids(model))) == 21
-    assert len(set(hand.joint_ids(model))) == 22
-    assert len(set(hand.actuator_ids(model))) == 22
-    assert len(set(hand.link_geom_ids(model))) == 21
+    assert len(set(link_body_ids(hand, model))) == 21
+    assert len(set(joint_ids(hand, model))) == 22
+    assert len(set(actuator_ids(hand, model))) == 22
+    assert len(set(link_geom_ids(hand, model))) == 21
     # qpos follows JOINTS order when the hand is alone
-    np.testing.assert_array_equal(hand.qpos_adr(model), np.arange(22))
+    np.testing.assert_array_equal(qpos_adr(hand, model), np.arange(22))
     # each actuator drives the joint of the same name
-    np.testing.assert_array_equal(model.actuator_trnid[hand.actuator_ids(model), 0], hand.joint_ids(model))
+    np.testing.assert_array_equal(model.actuator_trnid[actuator_ids(hand, model), 0], joint_ids(hand, model))
     assert set(hand.FINGERTIPS) <= set(hand.LINKS)
 
 
 def test_missing_name_raises(model):
-    with pytest.raises(ValueError, match="no_such_body"):
-        name2ids(model, mujoco.mjtObj.mjOBJ_BODY, ["palm", "no_such_body"])
+    with pytest.raises(SceneError, match="no_such_body"):
+        ids(model, mujoco.mjtObj.mjOBJ_BODY, ["palm", "no_such_body"], "body")
 
 
 @pytest.mark.parametrize("degree", [True, False])
@@ -113,10 +148,10 @@ def test_joint_ranges_and_open_pose(hand, degree):
     model, _ = _build(hand, degree=degree)
     ranges = hand.joint_ranges
     assert ranges.shape == (22, 2)
-    jid = hand.joint_ids(model)
+    jid = joint_ids(hand, model)
     np.testing.assert_allclose(model.jnt_range[jid], ranges, atol=1e-12)
     assert model.jnt_limited[jid].all()
-    np.testing.assert_allclose(model.actuator_ctrlrange[hand.actuator_ids(model)], ranges, atol=1e-12)
+    np.testing.assert_allclose(model.actuator_ctrlrange[actuator_ids(hand, model)], ranges, atol=1e-12)
     pose = hand.open_pose()
     assert pose.shape == (16,)
     assert np.all(pose >= hand.finger_ranges[:, 0]) and np.all(pose <= hand.finger_ranges[:, 1])
@@ -124,9 +159,9 @@ def test_joint_ranges_and_open_pose(hand, degree):
 
 
 def test_actuation_parameters(hand, model):
-    aid = hand.actuator_ids(model)
-    did = hand.dof_adr(model)
-    n_w = len(hand.WRIST_JOINTS)
+    aid = actuator_ids(hand, model)
+    did = dof_adr(hand, model)
+    n_w = hand.num_root
     kp = np.array([600.0] * 3 + [40.0] * 3 + [10.0] * 16)
     np.testing.assert_allclose(model.actuator_gainprm[aid, 0], kp)
     np.testing.assert_allclose(model.actuator_biasprm[aid, :3], np.stack([0 * kp, -kp, 0 * kp], axis=1))
@@ -137,16 +172,16 @@ def test_actuation_parameters(hand, model):
     assert model.actuator_forcelimited[fingers].all()
     np.testing.assert_allclose(model.actuator_forcerange[fingers], np.tile([-0.7, 0.7], (16, 1)))
     assert not model.actuator_forcelimited[aid[:n_w]].any()
-    assert (model.body_gravcomp[hand.link_body_ids(model)] == 1.0).all()
+    assert (model.body_gravcomp[link_body_ids(hand, model)] == 1.0).all()
 
 
 def test_finger_force_is_clamped(hand, model):
     data = mujoco.MjData(model)
-    aid = hand.actuator_ids(model)
-    data.qpos[hand.qpos_adr(model)[len(hand.WRIST_JOINTS) :]] = hand.open_pose()
-    data.ctrl[aid[len(hand.WRIST_JOINTS) :]] = hand.finger_ranges[:, 1]
+    aid = actuator_ids(hand, model)
+    data.qpos[qpos_adr(hand, model)[hand.num_root :]] = hand.open_pose()
+    data.ctrl[aid[hand.num_root :]] = hand.finger_ranges[:, 1]
     mujoco.mj_forward(model, data)
-    assert np.abs(data.actuator_force[aid[len(hand.WRIST_JOINTS) :]]).max() == pytest.approx(0.7)
+    assert np.abs(data.actuator_force[aid[hand.num_root :]]).max() == pytest.approx(0.7)
 
 
 def _configs(hand: AllegroHand) -> list[np.ndarray]:
@@ -161,12 +196,12 @@ def test_forward_kinematics_matches_table(hand, model, k):
     fingers = _configs(hand)[k]
     data = mujoco.MjData(model)
     rng = np.random.default_rng(k)
-    wrist = rng.uniform(-0.5, 0.5, size=len(hand.WRIST_JOINTS))  # must not matter in the palm frame
-    qadr = hand.qpos_adr(model)
+    wrist = rng.uniform(-0.5, 0.5, size=hand.num_root)  # must not matter in the palm frame
+    qadr = qpos_adr(hand, model)
     data.qpos[qadr] = np.concatenate([wrist, fingers])
     mujoco.mj_kinematics(model, data)
     q = dict(zip(hand.FINGER_JOINTS, fingers, strict=True))
-    bid = dict(zip(hand.LINKS, hand.link_body_ids(model), strict=True))
+    bid = dict(zip(hand.LINKS, link_body_ids(hand, model), strict=True))
     p_palm, R_palm = data.xpos[bid["palm"]], data.xmat[bid["palm"]].reshape(3, 3)
     for link in hand.LINKS:
         p_ref, R_ref = _body_in_palm(link, q)
@@ -181,9 +216,9 @@ def test_wrist_kinematics_and_sensors(hand):
     root_pos = np.array([0.1, -0.2, 0.3])
     model, data = _build(hand, root_pos=root_pos)
     wrist = np.array([0.05, -0.03, 0.02, 0.4, -0.3, 1.1])
-    data.qpos[hand.qpos_adr(model)] = np.concatenate([wrist, hand.open_pose()])
+    data.qpos[qpos_adr(hand, model)] = np.concatenate([wrist, hand.open_pose()])
     mujoco.mj_forward(model, data)
-    palm = hand.link_body_ids(model)[0]
+    palm = link_body_ids(hand, model)[0]
     R_ref = (
         _axis_angle((1, 0, 0), wrist[3])
         @ _axis_angle((0, 1, 0), wrist[4])
@@ -192,8 +227,8 @@ def test_wrist_kinematics_and_sensors(hand):
     )
     np.testing.assert_allclose(data.xpos[palm], root_pos + wrist[:3], atol=1e-9)
     np.testing.assert_allclose(data.xmat[palm].reshape(3, 3), R_ref, atol=1e-9)
-    pos_adr, quat_adr = hand.link_sensor_adr(model)
-    bids = hand.link_body_ids(model)
+    pos_adr, quat_adr = link_sensor_adr(hand, model)
+    bids = link_body_ids(hand, model)
     np.testing.assert_allclose(data.sensordata[pos_adr[:, None] + np.arange(3)], data.xpos[bids], atol=1e-12)
     quats = data.sensordata[quat_adr[:, None] + np.arange(4)]
     sign = np.sign(np.sum(quats * data.xquat[bids], axis=1, keepdims=True))
@@ -201,15 +236,17 @@ def test_wrist_kinematics_and_sensors(hand):
 
 
 def test_geoms_attribute_to_links(hand, model):
-    idx = hand.geom_link_index(model)
-    assert idx.shape == (model.ngeom,)
-    np.testing.assert_array_equal(idx[hand.link_geom_ids(model)], np.arange(len(hand.LINKS)))
-    assert all(model.geom_contype[g] and model.geom_conaffinity[g] for g in hand.link_geom_ids(model))
+    body_link = -np.ones(model.nbody, int)
+    body_link[link_body_ids(hand, model)] = np.arange(len(hand.LINKS))
+    np.testing.assert_array_equal(
+        body_link[model.geom_bodyid[link_geom_ids(hand, model)]], np.arange(len(hand.LINKS))
+    )
+    assert all(model.geom_contype[g] and model.geom_conaffinity[g] for g in link_geom_ids(hand, model))
 
 
 def test_open_pose_has_no_self_contact(hand, model):
     data = mujoco.MjData(model)
-    data.qpos[hand.qpos_adr(model)[len(hand.WRIST_JOINTS) :]] = hand.open_pose()
+    data.qpos[qpos_adr(hand, model)[hand.num_root :]] = hand.open_pose()
     mujoco.mj_forward(model, data)
     assert data.ncon == 0
 
@@ -217,12 +254,12 @@ def test_open_pose_has_no_self_contact(hand, model):
 def test_passive_hold_is_stable(hand):
     """2 s at 1 ms with the wrist servoed in place and the fingers open: no drift, NaN or warning."""
     model, data = _build(hand, root_pos=(0.0, 0.0, 0.3))
-    qadr, aid = hand.qpos_adr(model), hand.actuator_ids(model)
+    qadr, aid = qpos_adr(hand, model), actuator_ids(hand, model)
     target = np.concatenate([[0.02, -0.01, 0.05, 0.3, -0.2, 0.5], hand.open_pose()])
     data.qpos[qadr] = target
     data.ctrl[aid] = target
     mujoco.mj_forward(model, data)
-    palm = hand.link_body_ids(model)[0]
+    palm = link_body_ids(hand, model)[0]
     palm_target = data.xpos[palm].copy()
     worst = 0.0
     for _ in range(2000):

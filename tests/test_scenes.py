@@ -17,7 +17,7 @@ import pytest
 from hydra.utils import instantiate
 
 import launch
-from contactmpc.render import render_scene
+from contactmpc.jobs.render_scene import render_scene
 from contactmpc.scene import Scene
 
 FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -148,9 +148,9 @@ def test_task_composes_and_compiles(task, compose):
             assert not missing, f"{task}: unresolved {kind.name} names {missing}"
         assert m.nu == len(hand.actuator_names) == 22
         # 22 hand joints + q_o (+ at most a couple of hidden mechanism joints, e.g. the latch bolt).
-        assert 22 + tk.qo_dim <= m.nq <= 22 + tk.qo_dim + 2
+        assert 22 + tk.layout.width <= m.nq <= 22 + tk.layout.width + 2
         assert m.nv <= m.nq
-    assert len(scene.index.object_qpos) == tk.qo_dim
+    assert len(scene.index.object_qpos) == tk.layout.width
     np.testing.assert_array_equal(scene.index.actuators, np.arange(22))
 
     # The two models are one spec compiled twice: identical in everything but the timestep.

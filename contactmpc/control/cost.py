@@ -19,21 +19,6 @@ from contactmpc.control.track import ReferenceTrack
 from contactmpc.scene import Scene
 
 
-def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vectors by unit quaternions (w x y z), broadcasting over leading axes.
-
-    Args:
-        q: (..., 4) unit quaternions.
-        v: (..., 3) vectors.
-
-    Returns:
-        (..., 3) rotated vectors.
-    """
-    w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
-
-
 @numba.njit(cache=True, parallel=True)
 def _contact_sq_dist(
     sd, steps, link_pos, link_quat, obj_pos, obj_quat, link_pt, obj_pt, out
@@ -119,31 +104,13 @@ class TrackingCost:
         """(..., n_o) the object configuration read from sensordata (..., nsensordata)."""
         return sensordata[..., self._qo]
 
-    def contact_points(self, sensordata: np.ndarray, window: slice) -> tuple[np.ndarray, np.ndarray]:
-        """World positions of the expected link points and their object points.
-
-        Args:
-            sensordata: (..., H, nsensordata) with H equal to the window's length.
-            window: grid slice of the reference track.
-
-        Returns:
-            link points and object points, each (..., H, L, 3).
-        """
-        idx, tr = self.scene.index, self.track
-        link_p = sensordata[..., idx.link_pos]  # (..., H, L, 3)
-        link_q = sensordata[..., idx.link_quat]  # (..., H, L, 4)
-        body = tr.contact_object_body[window]  # (H, L)
-        obj_p = sensordata[..., idx.object_pos][..., np.arange(body.shape[0])[:, None], body, :]
-        obj_q = sensordata[..., idx.object_quat][..., np.arange(body.shape[0])[:, None], body, :]
-        xl = link_p + quat_rotate(link_q, tr.contact_link_point[window])
-        xo = obj_p + quat_rotate(obj_q, tr.contact_object_point[window])
-        return xl, xo
-
     def contact_term(self, sensordata: np.ndarray, window: slice) -> np.ndarray:
         """Unweighted contact term: summed squared distances of the expected pairs.
 
-        Equal to ``sum_l active * |xl - xo|^2`` with :meth:`contact_points`, computed by a compiled
-        kernel over the expected (step, link) pairs only.
+        ``sum_l active_l * |p_l + R_l a_l - (p_o + R_o b_l)|^2`` over the expected links ``l`` at each
+        step (link pose ``p_l, R_l`` and the pose ``p_o, R_o`` of the object body holding the link's
+        object point, from sensordata), computed by a compiled kernel over the expected (step, link)
+        pairs only.
 
         Args:
             sensordata: (S, H, nsensordata) with H equal to the window's length.
@@ -182,7 +149,7 @@ class TrackingCost:
             dict of the weighted terms ``object``, ``contact``, ``velocity``, each (S, H).
         """
         tr = self.track
-        err = self.scene.task.object_error(self.object_qpos(sensordata), tr.object_qpos[window])
+        err = self.scene.task.layout.error(self.object_qpos(sensordata), tr.object_qpos[window])
         obj = err.position**2 + self.rotation_weight * err.rotation**2
         obj = obj + self.articulation_weight * err.articulation**2
         v = sensordata[..., self._vel]

@@ -1,9 +1,9 @@
 """Sampler spaces: the coordinates in which control points are perturbed.
 
-Both spaces describe the hand's 22 joint targets by ``M`` B-spline control points over the control
-time of the slowed reference. A space's decision variable ``theta`` has shape (M, d): the first six
-columns are the wrist (root) DOFs in joint space; the remaining ``d - 6`` columns are the finger
-coordinates of the space:
+Both spaces describe the hand's ``J`` joint targets by ``M`` B-spline control points over the control
+time of the slowed reference. A space's decision variable ``theta`` has shape (M, d): the first
+``num_root`` columns are the wrist (root) DOFs in joint space; the remaining ``d - num_root`` columns
+are the finger coordinates of the space:
 
 - :class:`PCASplineSpace` (the paper): finger control points in the coordinates of the principal
   components of the reference finger curves, ``u = P^T z + p`` (Eq. 3). With ``whiten`` the PC
@@ -22,17 +22,15 @@ import numpy as np
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis
 
-NUM_ROOT = 6
-
 
 class SplineSpace:
     """Base class: B-spline control points of root + finger coordinates.
 
     Args:
         sigma2: noise variance on every finger coordinate (PC or joint), in the space's units.
-        root_sigma2: noise variance on the six root (wrist) DOFs; the paper uses 0.
+        root_sigma2: noise variance on the root (wrist) DOFs; the paper uses 0.
         whiten: divide PC coordinates by their spread over the reference (PCA space only).
-        num_components: number of PCs kept (PCA space only); ``None`` keeps all 16.
+        num_components: number of PCs kept (PCA space only); ``None`` keeps one per finger joint.
     """
 
     def __init__(
@@ -50,35 +48,43 @@ class SplineSpace:
         self.root_sigma2 = float(root_sigma2)
         self.whiten = bool(whiten)
         self.num_components = num_components
-        self.spline: UniformBSpline | None = None
         self.ranges: np.ndarray | None = None
+        self.num_root = 0
+        self.num_fingers = 0
 
     # --- set-up -------------------------------------------------------------------------------
-    def bind(
-        self, spline: UniformBSpline, times: np.ndarray, hand_qpos: np.ndarray, ranges: np.ndarray
+    def fit(
+        self,
+        spline: UniformBSpline,
+        times: np.ndarray,
+        hand_qpos: np.ndarray,
+        ranges: np.ndarray,
+        num_root: int,
     ) -> np.ndarray:
         """Fit the space to the reference and return the nominal control points.
 
         Args:
             spline: the B-spline over control time.
             times: (T,) control times of the reference frames.
-            hand_qpos: (T, 22) reference hand configurations.
-            ranges: (22, 2) actuator control ranges; joint targets are clipped to them.
+            hand_qpos: (T, J) reference hand configurations (root DOFs first).
+            ranges: (J, 2) actuator control ranges; joint targets are clipped to them.
+            num_root: number of root (wrist) DOFs, the first columns of ``hand_qpos``.
 
         Returns:
             (M, d) nominal control points ``theta``.
         """
-        self.spline = spline
         self.ranges = np.asarray(ranges, float)
-        root_cp = spline.fit(times, hand_qpos[:, :NUM_ROOT])
-        finger_cp = self._bind_fingers(spline, times, hand_qpos[:, NUM_ROOT:])
+        self.num_root = int(num_root)
+        self.num_fingers = hand_qpos.shape[1] - self.num_root
+        root_cp = spline.fit(times, hand_qpos[:, : self.num_root])
+        finger_cp = self._fit_fingers(spline, times, hand_qpos[:, self.num_root :])
         return np.concatenate([root_cp, finger_cp], axis=-1)
 
-    def _bind_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+    def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
     def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
-        """Map finger coordinates (..., d - 6) to finger joint values (..., 16)."""
+        """Map finger coordinates (..., d - num_root) to finger joint values (..., num_fingers)."""
         raise NotImplementedError
 
     @property
@@ -90,7 +96,7 @@ class SplineSpace:
     def noise_std(self) -> np.ndarray:
         """(d,) standard deviation of the sampling noise per column of ``theta``."""
         std = np.full(self.dim, np.sqrt(self.sigma2))
-        std[:NUM_ROOT] = np.sqrt(self.root_sigma2)
+        std[: self.num_root] = np.sqrt(self.root_sigma2)
         return std
 
     # --- evaluation ---------------------------------------------------------------------------
@@ -101,9 +107,10 @@ class SplineSpace:
             theta: (..., M, d) control points of this space.
 
         Returns:
-            (..., M, 22) joint-space control points.
+            (..., M, J) joint-space control points.
         """
-        return np.concatenate([theta[..., :NUM_ROOT], self.finger_joints(theta[..., NUM_ROOT:])], axis=-1)
+        root, fingers = theta[..., : self.num_root], theta[..., self.num_root :]
+        return np.concatenate([root, self.finger_joints(fingers)], axis=-1)
 
     def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
         """Joint targets from control points through a precomputed basis.
@@ -113,7 +120,7 @@ class SplineSpace:
             basis: (H, M) B-spline basis at the H query times (``spline.basis(times)``).
 
         Returns:
-            (..., H, 22) joint targets, clipped to the actuators' ranges.
+            (..., H, J) joint targets, clipped to the actuators' ranges.
         """
         u = basis @ self.joint_control_points(theta)
         return np.clip(u, self.ranges[:, 0], self.ranges[:, 1], out=u)
@@ -122,7 +129,7 @@ class SplineSpace:
 class JointSplineSpace(SplineSpace):
     """Finger control points in joint space (the paper's ablation, sigma^2 = 60 deg per DOF)."""
 
-    def _bind_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+    def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
         return spline.fit(times, fingers)
 
     def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
@@ -130,7 +137,7 @@ class JointSplineSpace(SplineSpace):
 
     @property
     def dim(self) -> int:
-        return NUM_ROOT + 16
+        return self.num_root + self.num_fingers
 
 
 class PCASplineSpace(SplineSpace):
@@ -138,7 +145,7 @@ class PCASplineSpace(SplineSpace):
 
     pca: PCABasis
 
-    def _bind_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+    def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
         self.pca = PCABasis.fit(fingers, num_components=self.num_components, whiten=self.whiten)
         # PC-curves fitted with the same M (paper §II-A).
         return spline.fit(times, self.pca.to_pc(fingers))
@@ -148,4 +155,4 @@ class PCASplineSpace(SplineSpace):
 
     @property
     def dim(self) -> int:
-        return NUM_ROOT + self.pca.num_components
+        return self.num_root + self.pca.num_components

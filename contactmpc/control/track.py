@@ -12,41 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
 from contactmpc.reference.data import Reference
-from contactmpc.tasks.base import JOINT_WIDTH, ObjectJoint
-
-
-def interpolate_object(
-    times: np.ndarray, qo: np.ndarray, joints: tuple[ObjectJoint, ...], query: np.ndarray
-) -> np.ndarray:
-    """Interpolate object configurations: linear for positions/angles, slerp for quaternions.
-
-    Args:
-        times: (T,) increasing sample times.
-        qo: (T, n_o) object configurations.
-        joints: the layout of ``q_o``.
-        query: (N,) query times (clipped to ``times``' range).
-
-    Returns:
-        (N, n_o) interpolated configurations.
-    """
-    query = np.clip(query, times[0], times[-1])
-    out = np.empty((len(query), qo.shape[1]))
-    col = 0
-    for j in joints:
-        w = JOINT_WIDTH[j.kind]
-        if j.kind == "free":
-            for c in range(col, col + 3):
-                out[:, c] = np.interp(query, times, qo[:, c])
-            wxyz = qo[:, col + 3 : col + 7]
-            rot = Rotation.from_quat(wxyz, scalar_first=True)
-            out[:, col + 3 : col + 7] = Slerp(times, rot)(query).as_quat(scalar_first=True, canonical=False)
-        else:
-            out[:, col] = np.interp(query, times, qo[:, col])
-        col += w
-    return out
+from contactmpc.tasks.base import ObjectLayout
 
 
 @dataclass
@@ -58,7 +26,7 @@ class ReferenceTrack:
         time_scale: slow-down factor of the demonstration.
         duration: control-time duration of the slowed reference (s).
         hand_times: (T,) control times of the reference frames.
-        hand_qpos: (T, 22) reference hand configurations.
+        hand_qpos: (T, J) reference hand configurations.
         object_qpos: (N, n_o) expected object configuration per grid step.
         contact_active: (N, L) expected contacts per grid step.
         contact_link_point: (N, L, 3) link-local contact points.
@@ -81,7 +49,7 @@ class ReferenceTrack:
     def build(
         cls,
         reference: Reference,
-        joints: tuple[ObjectJoint, ...],
+        layout: ObjectLayout,
         time_scale: float,
         dt: float,
         padding: float,
@@ -90,7 +58,7 @@ class ReferenceTrack:
 
         Args:
             reference: the demonstration.
-            joints: the task's ``q_o`` layout.
+            layout: the task's ``q_o`` layout.
             time_scale: slow-down factor (control time = ``time_scale`` x demonstration time).
             dt: grid step (s).
             padding: extra control time after the end, holding the last frame (s); one horizon.
@@ -107,7 +75,7 @@ class ReferenceTrack:
             duration=duration,
             hand_times=t_ref,
             hand_qpos=reference.hand_qpos,
-            object_qpos=interpolate_object(t_ref, reference.object_qpos, joints, grid),
+            object_qpos=layout.resample(t_ref, reference.object_qpos, grid),
             contact_active=reference.contact_active[frame],
             contact_link_point=reference.contact_link_point[frame],
             contact_object_point=reference.contact_object_point[frame],

@@ -1,5 +1,8 @@
-"""Hand builders: each hand adds its bodies, joints, actuators and sensors to a ``mujoco.MjSpec``."""
+"""Hands: each adds its bodies, joints, actuators and sensors to a ``mujoco.MjSpec`` and names them
+(:class:`~contactmpc.hands.base.Hand`)."""
 
 from contactmpc.hands.allegro import AllegroHand
+from contactmpc.hands.base import FloatingHand, Hand
+from contactmpc.hands.gripper import ParallelGripper
 
-__all__ = ["AllegroHand"]
+__all__ = ["AllegroHand", "FloatingHand", "Hand", "ParallelGripper"]

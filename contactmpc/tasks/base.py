@@ -2,15 +2,20 @@
 
 A task adds its table/fixtures and its object bodies to a ``mujoco.MjSpec``. Its object configuration
 ``q_o`` is the concatenation of the qpos of a declared list of object joints: a free joint contributes
-7 entries (position, unit quaternion w x y z), a hinge or slide joint one angle/offset each.
+7 entries (position, unit quaternion w x y z), a hinge or slide joint one angle/offset each. Which
+column means what is known in one place, :class:`ObjectLayout`: it resolves the columns' qpos, qvel
+and sensor addresses, measures errors between configurations, interpolates between two of them and
+resamples a trajectory of them in time.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 JOINT_WIDTH = {"free": 7, "hinge": 1, "slide": 1}  # entries in qpos
 DOF_WIDTH = {"free": 6, "hinge": 1, "slide": 1}  # entries in qvel
@@ -63,6 +68,150 @@ def quat_angle(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
     return 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
 
 
+class ObjectLayout:
+    """The columns of ``q_o``, from its joints: free blocks (position 3 + quaternion 4) and
+    articulations (one column per hinge or slide joint).
+
+    Args:
+        joints: the object joints, in ``q_o`` order.
+
+    Attributes:
+        joints: the object joints.
+        width: ``n_o``, the number of columns.
+        free_columns: (F,) first column of each free block.
+        articulation_columns: (A,) column of each hinge/slide joint.
+        articulation_joints: (A,) names of those joints, in ``q_o`` order.
+    """
+
+    def __init__(self, joints: tuple[ObjectJoint, ...]) -> None:
+        self.joints = tuple(joints)
+        free, art, col = [], [], 0
+        for j in self.joints:
+            (free if j.kind == "free" else art).append((col, j.name))
+            col += JOINT_WIDTH[j.kind]
+        self.width = col
+        self.free_columns = tuple(c for c, _ in free)
+        self.articulation_columns = tuple(c for c, _ in art)
+        self.articulation_joints = tuple(n for _, n in art)
+
+    @property
+    def quat_index(self) -> int | None:
+        """Column of the first free block's quaternion (w x y z), or None without a free joint."""
+        return self.free_columns[0] + 3 if self.free_columns else None
+
+    def position(self, qo: np.ndarray) -> np.ndarray:
+        """(..., 3) position of the first free block of ``qo`` (..., n_o)."""
+        c = self.free_columns[0]
+        return qo[..., c : c + 3]
+
+    def quaternion(self, qo: np.ndarray) -> np.ndarray:
+        """(..., 4) quaternion (w x y z) of the first free block of ``qo`` (..., n_o)."""
+        c = self.free_columns[0] + 3
+        return qo[..., c : c + 4]
+
+    # --- addresses in a compiled model -----------------------------------------------------
+    def qpos_indices(self, model: mujoco.MjModel) -> np.ndarray:
+        """(n_o,) indices into ``qpos`` that make up ``q_o``, resolved by joint name."""
+        return self._indices(model, model.jnt_qposadr, JOINT_WIDTH)
+
+    def dof_indices(self, model: mujoco.MjModel) -> np.ndarray:
+        """(nv_o,) indices into ``qvel`` of the object joints."""
+        return self._indices(model, model.jnt_dofadr, DOF_WIDTH)
+
+    def _indices(self, model: mujoco.MjModel, address: np.ndarray, width: dict[str, int]) -> np.ndarray:
+        idx = []
+        for j in self.joints:
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            if jid < 0:
+                raise ValueError(f"object joint {j.name!r} not in the model")
+            idx.extend(range(address[jid], address[jid] + width[j.kind]))
+        return np.asarray(idx, dtype=int)
+
+    def sensors(self, model: mujoco.MjModel) -> list[tuple[str, int]]:
+        """Sensors that read ``q_o`` directly, in ``q_o`` order: ``(name, width)`` pairs.
+
+        A free block is read by its body's frame sensors ``<body>_pos`` (3) and ``<body>_quat`` (4),
+        an articulation by its joint-position sensor ``<joint>_pos`` (1) (see :meth:`Task.add_to`).
+        """
+        out = []
+        for j in self.joints:
+            if JOINT_WIDTH[j.kind] == 1:
+                out.append((f"{j.name}_pos", 1))
+                continue
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            if jid < 0:
+                raise ValueError(f"object joint {j.name!r} not in the model")
+            body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.jnt_bodyid[jid])
+            out += [(f"{body}_pos", 3), (f"{body}_quat", 4)]
+        return out
+
+    # --- arithmetic on configurations -------------------------------------------------------
+    def error(self, qo_a: np.ndarray, qo_b: np.ndarray) -> ObjectError:
+        """Errors between object configurations, vectorised over leading axes.
+
+        Args:
+            qo_a: (..., n_o) object configurations.
+            qo_b: (..., n_o) object configurations (broadcastable to ``qo_a``).
+
+        Returns:
+            :class:`ObjectError` with arrays of shape (...,): position and rotation summed over the
+            free blocks, articulation the norm over the articulation columns.
+        """
+        qo_a, qo_b = np.broadcast_arrays(np.asarray(qo_a, float), np.asarray(qo_b, float))
+        shape = qo_a.shape[:-1]
+        pos = np.zeros(shape)
+        rot = np.zeros(shape)
+        art = np.zeros(shape)
+        for c in self.free_columns:
+            pos = pos + np.linalg.norm(qo_a[..., c : c + 3] - qo_b[..., c : c + 3], axis=-1)
+            rot = rot + quat_angle(qo_a[..., c + 3 : c + 7], qo_b[..., c + 3 : c + 7])
+        for c in self.articulation_columns:
+            art = art + (qo_a[..., c] - qo_b[..., c]) ** 2
+        return ObjectError(position=pos, rotation=rot, articulation=np.sqrt(art))
+
+    def interpolate(self, qa: np.ndarray, qb: np.ndarray, s: float) -> np.ndarray:
+        """The configuration a fraction ``s`` of the way from ``qa`` (s = 0) to ``qb`` (s = 1).
+
+        Positions and articulations linearly; each quaternion along the geodesic, with the sign of
+        ``qa``'s.
+
+        Returns:
+            (n_o,) the configuration.
+        """
+        qa, qb = np.asarray(qa, float), np.asarray(qb, float)
+        out = (1.0 - s) * qa + s * qb
+        for c in self.free_columns:
+            ra = Rotation.from_quat(qa[c + 3 : c + 7], scalar_first=True)
+            rb = Rotation.from_quat(qb[c + 3 : c + 7], scalar_first=True)
+            rot = ra * Rotation.from_rotvec(s * (ra.inv() * rb).as_rotvec())
+            quat = rot.as_quat(scalar_first=True)
+            if np.dot(quat, qa[c + 3 : c + 7]) < 0:
+                quat = -quat
+            out[c + 3 : c + 7] = quat
+        return out
+
+    def resample(self, times: np.ndarray, qo: np.ndarray, query: np.ndarray) -> np.ndarray:
+        """A trajectory of configurations at other times: linear for positions and articulations,
+        slerp for quaternions.
+
+        Args:
+            times: (T,) increasing sample times.
+            qo: (T, n_o) object configurations.
+            query: (N,) query times (clipped to ``times``' range).
+
+        Returns:
+            (N, n_o) configurations.
+        """
+        query = np.clip(query, times[0], times[-1])
+        out = np.empty((len(query), qo.shape[1]))
+        for c in range(qo.shape[1]):
+            out[:, c] = np.interp(query, times, qo[:, c])
+        for c in self.free_columns:
+            rot = Rotation.from_quat(qo[:, c + 3 : c + 7], scalar_first=True)
+            out[:, c + 3 : c + 7] = Slerp(times, rot)(query).as_quat(scalar_first=True, canonical=False)
+        return out
+
+
 class Task:
     """Base class of a manipulation task.
 
@@ -70,9 +219,13 @@ class Task:
     frame sensors; contact points are expressed in one of them) and implement :meth:`add_objects`.
 
     Args:
-        hand_home: (22,) initial hand configuration (wrist x y z rx ry rz, then 16 finger joints).
+        hand_home: (num_joints,) initial hand configuration in the hand's joint order (for the
+            Allegro hand: wrist x y z rx ry rz, then 16 finger joints); the scene checks its length.
         time_scale: slow-down factor applied to the demonstration before control (paper: 5-10).
         reference_path: optional user-supplied reference ``.npz``; ``None`` synthesises one.
+        demonstration: the design of the task's synthetic demonstration (e.g.
+            :class:`contactmpc.reference.synthetic.designs.AppleDemo`), used when ``reference_path``
+            is ``None``.
     """
 
     name: str = "task"
@@ -87,18 +240,29 @@ class Task:
         hand_home: list[float] | np.ndarray,
         time_scale: float = 5.0,
         reference_path: str | None = None,
+        demonstration: object | None = None,
     ) -> None:
         self.hand_home = np.asarray(hand_home, dtype=float)
-        if self.hand_home.shape != (22,):
-            raise ValueError(f"task {self.name}: hand_home must have 22 entries, got {self.hand_home.shape}")
+        if self.hand_home.ndim != 1:
+            raise ValueError(
+                f"task {self.name}: hand_home must be a flat list, got shape {self.hand_home.shape}"
+            )
         if time_scale <= 0:
             raise ValueError(f"task {self.name}: time_scale must be positive, got {time_scale}")
         self.time_scale = float(time_scale)
         self.reference_path = reference_path
+        self.demonstration = demonstration
+
+    @cached_property
+    def layout(self) -> ObjectLayout:
+        """The columns of ``q_o``."""
+        return ObjectLayout(self.object_joints)
 
     # --- scene -------------------------------------------------------------------------------
     def add_to(self, spec: mujoco.MjSpec) -> None:
-        """Add the task's fixtures, objects and object frame sensors to ``spec``."""
+        """Add the task's fixtures, objects and object sensors to ``spec``: frame sensors
+        ``<body>_pos``/``<body>_quat`` on every object body, and joint-position sensors ``<joint>_pos``
+        on the articulations, so that ``q_o`` comes back in sensordata too."""
         self.add_objects(spec)
         for body in self.object_bodies:
             spec.add_sensor(
@@ -113,15 +277,13 @@ class Task:
                 objtype=mujoco.mjtObj.mjOBJ_XBODY,  # body frame, not the CoM frame
                 objname=body,
             )
-
-        for j in self.object_joints:
-            if j.kind != "free":  # articulation angles come back in sensordata as well
-                spec.add_sensor(
-                    name=f"{j.name}_pos",
-                    type=mujoco.mjtSensor.mjSENS_JOINTPOS,
-                    objtype=mujoco.mjtObj.mjOBJ_JOINT,
-                    objname=j.name,
-                )
+        for joint in self.layout.articulation_joints:
+            spec.add_sensor(
+                name=f"{joint}_pos",
+                type=mujoco.mjtSensor.mjSENS_JOINTPOS,
+                objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                objname=joint,
+            )
 
     def add_objects(self, spec: mujoco.MjSpec) -> None:
         """Add fixtures and object bodies (with the joints of ``object_joints``) to ``spec``."""
@@ -170,54 +332,6 @@ class Task:
                 conaffinity=0,
             )
 
-    # --- object configuration ---------------------------------------------------------------
-    @property
-    def qo_dim(self) -> int:
-        """Length of ``q_o``."""
-        return sum(JOINT_WIDTH[j.kind] for j in self.object_joints)
-
-    def qo_qpos_indices(self, model: mujoco.MjModel) -> np.ndarray:
-        """(n_o,) indices into ``qpos`` that make up ``q_o``, resolved by joint name."""
-        return self._joint_indices(model, model.jnt_qposadr, JOINT_WIDTH)
-
-    def qo_dof_indices(self, model: mujoco.MjModel) -> np.ndarray:
-        """(nv_o,) indices into ``qvel`` of the object joints."""
-        return self._joint_indices(model, model.jnt_dofadr, DOF_WIDTH)
-
-    def _joint_indices(self, model: mujoco.MjModel, address: np.ndarray, width: dict[str, int]) -> np.ndarray:
-        idx = []
-        for j in self.object_joints:
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-            if jid < 0:
-                raise ValueError(f"task {self.name}: object joint {j.name!r} not in the model")
-            idx.extend(range(address[jid], address[jid] + width[j.kind]))
-        return np.asarray(idx, dtype=int)
-
-    def object_error(self, qo_a: np.ndarray, qo_b: np.ndarray) -> ObjectError:
-        """Errors between object configurations, vectorised over leading axes.
-
-        Args:
-            qo_a: (..., n_o) object configurations.
-            qo_b: (..., n_o) object configurations (broadcastable to ``qo_a``).
-
-        Returns:
-            :class:`ObjectError` with arrays of shape (...,).
-        """
-        qo_a, qo_b = np.broadcast_arrays(np.asarray(qo_a, float), np.asarray(qo_b, float))
-        shape = qo_a.shape[:-1]
-        pos = np.zeros(shape)
-        rot = np.zeros(shape)
-        art = np.zeros(shape)
-        col = 0
-        for j in self.object_joints:
-            if j.kind == "free":
-                pos = pos + np.linalg.norm(qo_a[..., col : col + 3] - qo_b[..., col : col + 3], axis=-1)
-                rot = rot + quat_angle(qo_a[..., col + 3 : col + 7], qo_b[..., col + 3 : col + 7])
-            else:
-                art = art + (qo_a[..., col] - qo_b[..., col]) ** 2
-            col += JOINT_WIDTH[j.kind]
-        return ObjectError(position=pos, rotation=rot, articulation=np.sqrt(art))
-
     # --- completion -------------------------------------------------------------------------
     def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
         """The task's milestones, judged on a trial's object trajectory.
@@ -235,20 +349,20 @@ class Task:
         """Whether every milestone of :meth:`milestones` was reached."""
         return all(self.milestones(qo, expected).values())
 
-    @staticmethod
-    def lift(qo: np.ndarray) -> np.ndarray:
-        """(N,) height of a free body (columns 0:3 of ``q_o``) above its first position (m)."""
-        return qo[:, 2] - qo[0, 2]
+    def lift(self, qo: np.ndarray) -> np.ndarray:
+        """(N,) height of the (first) free body above its first position (m)."""
+        z = self.layout.position(qo)[:, 2]
+        return z - z[0]
 
-    @staticmethod
-    def tilt(qo: np.ndarray) -> np.ndarray:
-        """(N,) angle between a free body's z axis (quaternion in columns 3:7) and world z (rad)."""
-        w, x, y = qo[:, 3], qo[:, 4], qo[:, 5]
-        z = qo[:, 6]
+    def tilt(self, qo: np.ndarray) -> np.ndarray:
+        """(N,) angle between the (first) free body's z axis and world z (rad)."""
+        q = self.layout.quaternion(qo)
+        w, x, y = q[:, 0], q[:, 1], q[:, 2]
+        z = q[:, 3]
         zz = 1.0 - 2.0 * (x * x + y * y)  # world-z component of the body's z axis
         zz /= w * w + x * x + y * y + z * z
         return np.arccos(np.clip(zz, -1.0, 1.0))
 
     def initial_object_qpos(self, model: mujoco.MjModel) -> np.ndarray:
         """(n_o,) the object configuration of the model's default pose (``qpos0``)."""
-        return model.qpos0[self.qo_qpos_indices(model)].copy()
+        return model.qpos0[self.layout.qpos_indices(model)].copy()

@@ -4,6 +4,11 @@ A planner implements two methods, :meth:`Planner.sample` (candidate control poin
 nominal) and :meth:`Planner.update` (the new nominal from scored candidates). The base class owns
 everything else: the spline window, warm start (the committed control points persist between
 replans), mapping control points to clipped joint targets, the batched rollout, and scoring.
+
+Its public surface: :meth:`Planner.bind` (attach a :class:`~contactmpc.control.problem.Problem`),
+:meth:`Planner.plan` (one planning iteration that commits its result), :meth:`Planner.targets` (the
+committed policy: joint targets at given times), :meth:`Planner.candidates` (the candidate batch of
+an iteration) and :meth:`Planner.evaluate` (roll out and score control points).
 """
 
 from __future__ import annotations
@@ -13,12 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from contactmpc.control.cost import TrackingCost, as_index
+from contactmpc.control.cost import as_index
+from contactmpc.control.problem import Problem
 from contactmpc.control.rollout import RolloutEngine
-from contactmpc.control.samplers import SplineSpace
-from contactmpc.control.track import ReferenceTrack
-from contactmpc.reference.bspline import UniformBSpline
-from contactmpc.scene import Scene
 
 
 @dataclass
@@ -29,7 +31,8 @@ class PlanInfo:
         time: control time at which it planned (s).
         nominal_cost: cumulative cost of the unperturbed nominal (sample 0), or NaN without rollouts.
         best_cost: lowest cumulative cost among the samples (NaN without rollouts).
-        terms: cumulative cost terms of the committed (best) sample, by name.
+        terms: cumulative cost terms of the committed (best) sample, by the cost's term names (NaN
+            without rollouts).
         num_diverged: samples whose rollout diverged.
         window: (Mw,) indices of the control points that could change.
         seconds: wall time of the iteration.
@@ -102,25 +105,17 @@ class Planner:
         raise NotImplementedError
 
     # --- the loop ------------------------------------------------------------------------------
-    def bind(
-        self,
-        scene: Scene,
-        track: ReferenceTrack,
-        space: SplineSpace,
-        cost: TrackingCost,
-        spline: UniformBSpline,
-        theta: np.ndarray,
-    ) -> None:
-        """Attach the problem: scene, reference track, sampler space, cost, spline, nominal (M, d)."""
-        self.scene, self.track, self.space, self.cost, self.spline = scene, track, space, cost, spline
-        self.theta = np.array(theta, dtype=float)
-        self.dt = scene.planner_model.opt.timestep
+    def bind(self, problem: Problem) -> None:
+        """Attach the problem; the nominal control points start as the reference's own (``theta0``)."""
+        self.problem = problem
+        self.theta = np.array(problem.theta0, dtype=float)
+        self.dt = problem.scene.planner_model.opt.timestep
         self.steps = max(1, int(round(self.horizon / self.dt)))
-        self.noise_std = space.noise_std
+        self.noise_std = problem.space.noise_std
         self._basis_cache: dict[int, np.ndarray] = {}
-        self._actuators = as_index(scene.index.actuators)
+        self._actuators = as_index(problem.scene.index.actuators)
         if self.needs_rollouts and self.engine is None:
-            self.engine = RolloutEngine(scene.planner_model, self.nthread)
+            self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
 
     def close(self) -> None:
         """Release the rollout threads."""
@@ -130,16 +125,20 @@ class Planner:
 
     def basis(self, t: float) -> np.ndarray:
         """(H, M) spline basis over the horizon starting at grid time ``t`` (cached per grid index)."""
-        i = self.track.index(t)
+        i = self.problem.track.index(t)
         if i not in self._basis_cache:
             times = (i + np.arange(self.steps)) * self.dt
-            self._basis_cache[i] = self.spline.basis(times)
+            self._basis_cache[i] = self.problem.spline.basis(times)
         return self._basis_cache[i]
+
+    def targets(self, times: np.ndarray) -> np.ndarray:
+        """The committed policy: (N, J) joint targets at control ``times`` (N,)."""
+        return self.problem.space.controls(self.theta, self.problem.spline.basis(times))
 
     def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
         """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M)."""
-        u = self.space.controls(theta, basis)
-        nu = self.scene.planner_model.nu
+        u = self.problem.space.controls(theta, basis)
+        nu = self.problem.scene.planner_model.nu
         if self._actuators == slice(0, nu):
             return u
         ctrl = np.zeros(u.shape[:-1] + (nu,))
@@ -162,12 +161,26 @@ class Planner:
         """
         ctrl = self.controls(thetas, self.basis(t))
         _, sensordata, diverged = self.engine.run(state, ctrl)
-        window = self.track.window(t, self.steps)
+        window = self.problem.track.window(t, self.steps)
         n = window.stop - window.start
-        terms = {k: v.sum(axis=-1) for k, v in self.cost(sensordata[:, :n], window).items()}
+        terms = {k: v.sum(axis=-1) for k, v in self.problem.cost(sensordata[:, :n], window).items()}
         total = sum(terms.values())
         total = np.where(diverged | ~np.isfinite(total), np.inf, total)
         return total, terms, diverged
+
+    def candidates(self, rng: np.random.Generator, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The candidate batch of a planning iteration at control time ``t``.
+
+        Returns:
+            window: (Mw,) indices of the control points whose support meets ``[t, t + horizon]``;
+            candidates: (S, Mw, d) their sampled values (:meth:`sample`);
+            thetas: (S, M, d) full control-point sets: the nominal with the window replaced.
+        """
+        window = self.problem.spline.window_indices(t, self.horizon)
+        candidates = self.sample(rng, self.theta[window], window)
+        thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
+        thetas[:, window] = candidates
+        return window, candidates, thetas
 
     def plan(self, t: float, state: np.ndarray, rng: np.random.Generator) -> PlanInfo:
         """One planning iteration at control time ``t`` from the plant's state; commits the result.
@@ -178,23 +191,23 @@ class Planner:
             rng: the trial's random generator.
         """
         start = time.perf_counter()
-        window = self.spline.window_indices(t, self.horizon)
-        info = PlanInfo(time=t, window=window)
         if not self.needs_rollouts:
-            info.seconds = time.perf_counter() - start
-            return info
-        candidates = self.sample(rng, self.theta[window], window)
-        thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
-        thetas[:, window] = candidates
+            window = self.problem.spline.window_indices(t, self.horizon)
+            terms = {k: float("nan") for k in self.problem.cost.terms}
+            return PlanInfo(time=t, window=window, terms=terms, seconds=time.perf_counter() - start)
+        window, candidates, thetas = self.candidates(rng, t)
         total, terms, diverged = self.evaluate(state, t, thetas)
         best = int(np.argmin(total))
         self.theta[window] = self.update(candidates, total, window)
-        info.nominal_cost = float(total[0])
-        info.best_cost = float(total[best])
-        info.terms = {k: float(v[best]) for k, v in terms.items()}
-        info.num_diverged = int(diverged.sum())
-        info.seconds = time.perf_counter() - start
-        return info
+        return PlanInfo(
+            time=t,
+            window=window,
+            nominal_cost=float(total[0]),
+            best_cost=float(total[best]),
+            terms={k: float(v[best]) for k, v in terms.items()},
+            num_diverged=int(diverged.sum()),
+            seconds=time.perf_counter() - start,
+        )
 
     def gaussian(self, rng: np.random.Generator, nominal: np.ndarray, std: np.ndarray) -> np.ndarray:
         """(S, Mw, d) samples: row 0 the nominal, the rest ``nominal + std * N(0, 1)``."""

@@ -1,4 +1,5 @@
-"""Benchmark job: one planning iteration against the bare ``mujoco.rollout`` of the same batch.
+"""The benchmark job (``conf/job/benchmark.yaml``): one planning iteration against the bare
+``mujoco.rollout`` of the same batch.
 
     python launch.py job=benchmark preset=paper task=apple
 
@@ -85,10 +86,7 @@ def benchmark_planner(
             planner.theta[:] = theta0
             planner.plan(t, state, np.random.default_rng(seed))
 
-        window = planner.spline.window_indices(t, planner.horizon)
-        candidates = planner.sample(np.random.default_rng(seed), theta0[window], window)
-        thetas = np.broadcast_to(theta0, (len(candidates),) + theta0.shape).copy()
-        thetas[:, window] = candidates
+        _, _, thetas = planner.candidates(np.random.default_rng(seed), t)
         ctrl = planner.controls(thetas, planner.basis(t))
         plan = _median_time(plan_once, repeats)
         bare = _median_time(lambda state=state, ctrl=ctrl: planner.engine.run(state, ctrl), repeats)

@@ -1,6 +1,4 @@
-"""Jobs that ``launch.py`` runs on a composed scene. Each is built by Hydra (``conf/job/``) as a partial
-and called with ``scene``, ``output_dir``, ``seed`` and ``config`` (the resolved config, for records).
-"""
+"""The trial job (``conf/job/trial.yaml``): one closed-loop trial and its record."""
 
 from __future__ import annotations
 
@@ -129,7 +127,7 @@ def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected:
     ttf = time_to_failure(series["time"], series["contacts"], series["expected_contacts"], gap, min_expected)
     plan = series["plan_seconds"]
     sim = float(trial.duration)
-    final_err = trial.scene.task.object_error(series["object_qpos"][-1], trial.track.object_qpos[-1])
+    final_err = trial.scene.task.layout.error(series["object_qpos"][-1], trial.track.object_qpos[-1])
     task = trial.scene.task
     expected = series["expected_object_qpos"]
     milestones = task.milestones(series["object_qpos"], expected)
@@ -157,54 +155,3 @@ def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected:
         "num_plans": int(len(plan)),
         "diverged_rollouts": int(np.sum(series["num_diverged"])),
     }
-
-
-def write_reference(
-    make_scene: Callable[[], Scene], output_dir: str | Path, path: str | None = None, **_
-) -> Path:
-    """Write the task's reference (synthesised, or the user's file re-validated) to an ``.npz``.
-
-    Args:
-        make_scene: builds the scene.
-        output_dir: the run directory (the default destination).
-        path: destination ``.npz``; ``None`` = ``<output_dir>/reference_<task>.npz``.
-    """
-    scene = make_scene()
-    ref = get_reference(scene, None)
-    return ref.save(Path(path) if path else Path(output_dir) / f"reference_{scene.task.name}.npz")
-
-
-def reference_report(make_scene: Callable[[], Scene], output_dir: str | Path, **_) -> Path:
-    """Print the quality-gate report of the task's reference and write it as ``gates_<task>.json``."""
-    from contactmpc.reference.gates import check_gates, gate_report
-
-    scene = make_scene()
-    ref = get_reference(scene, None)
-    report = gate_report(scene, ref)
-    print(
-        f"reference of task {scene.task.name}: {ref.num_frames} frames, {ref.duration:.2f} s "
-        f"(x{scene.task.time_scale:g} slowed: {ref.duration * scene.task.time_scale:.1f} s)"
-    )
-    for key, value in report.items():
-        print(f"  {key:<40} {value}")
-    check_gates(report, task=scene.task.name)
-    print("  all gates pass")
-    return write_json(Path(output_dir) / f"gates_{scene.task.name}.json", report)
-
-
-def reference_filmstrip(
-    make_scene: Callable[[], Scene],
-    output_dir: str | Path,
-    num_frames: int = 7,
-    size: tuple[int, int] = (240, 320),
-    reference_cache: str | None = "outputs/cache/references",
-    **_,
-) -> Path:
-    """Render a filmstrip of the task's reference to ``<output_dir>/filmstrip_<task>.png``."""
-    from contactmpc.render import render_reference_filmstrip
-
-    scene = make_scene()
-    ref = get_reference(scene, reference_cache)
-    return render_reference_filmstrip(
-        scene, ref, Path(output_dir) / f"filmstrip_{scene.task.name}.png", num_frames, tuple(size)
-    )

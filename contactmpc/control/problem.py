@@ -1,0 +1,88 @@
+"""The planning problem, bound once: scene, reference track, spline, sampler space and cost.
+
+:meth:`Problem.build` slows the reference and samples it on the planner's grid
+(:class:`~contactmpc.control.track.ReferenceTrack`), chooses the spline (``M`` control points over the
+slowed reference), fits the sampler space to the reference hand curves (its nominal control points
+``theta0``) and resolves the cost's sensor addresses. A planner is then bound to the problem with
+:meth:`~contactmpc.control.planners.base.Planner.bind`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from contactmpc.control.cost import TrackingCost
+from contactmpc.control.samplers import SplineSpace
+from contactmpc.control.track import ReferenceTrack
+from contactmpc.reference.bspline import UniformBSpline
+from contactmpc.reference.data import Reference
+from contactmpc.scene import Scene
+
+
+@dataclass
+class Problem:
+    """Everything a planner plans for.
+
+    Attributes:
+        scene: the hand + task models and their index.
+        track: the slowed reference on the planner's grid.
+        spline: the B-spline over control time (``M`` control points).
+        space: the sampler space, fitted to the reference.
+        cost: the running cost, bound to scene and track.
+        theta0: (M, d) the reference's own control points in the space's coordinates.
+        duration: control time a trial simulates (s).
+    """
+
+    scene: Scene
+    track: ReferenceTrack
+    spline: UniformBSpline
+    space: SplineSpace
+    cost: TrackingCost
+    theta0: np.ndarray
+    duration: float
+
+    @classmethod
+    def build(
+        cls,
+        scene: Scene,
+        reference: Reference,
+        space: SplineSpace,
+        cost: TrackingCost,
+        horizon: float,
+        num_control_points: int | None = None,
+        duration: float | None = None,
+    ) -> Problem:
+        """Bind a reference, a sampler space and a cost to a scene.
+
+        Args:
+            scene: the composed hand + task.
+            reference: the demonstration (validated).
+            space: the sampler space (fitted here).
+            cost: the running cost (bound here).
+            horizon: the planner's horizon (s): the track is padded by it.
+            num_control_points: control points per curve ``M``; ``None`` takes ``reference.meta``'s
+                suggestion (``num_control_points``) or 4 per second of slowed reference.
+            duration: control time to simulate (s); ``None`` = the slowed reference's duration.
+        """
+        task = scene.task
+        padding = horizon + max(0.0, (duration or 0.0) - reference.duration * task.time_scale) + 0.1
+        track = ReferenceTrack.build(reference, task.layout, task.time_scale, scene.planner_timestep, padding)
+        if num_control_points is None:
+            num_control_points = reference.meta.get("num_control_points") or max(
+                8, int(round(4 * track.duration))
+            )
+        spline = UniformBSpline(int(num_control_points), (0.0, track.duration))
+        ranges = scene.plant_model.actuator_ctrlrange[scene.index.actuators]
+        theta0 = space.fit(spline, track.hand_times, reference.hand_qpos, ranges, scene.hand.num_root)
+        cost.bind(scene, track)
+        return cls(
+            scene=scene,
+            track=track,
+            spline=spline,
+            space=space,
+            cost=cost,
+            theta0=theta0,
+            duration=float(track.duration if duration is None else duration),
+        )
