@@ -8,8 +8,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from contactmpc.reference import Reference, SynthesisError, check_gates, gate_report, synthesize
-from contactmpc.reference.synthesis import min_jerk, wrist_angles
+from contactmpc.reference import Reference
+from contactmpc.reference.source import get_reference
+from contactmpc.reference.synthetic.demonstration import synthesize
+from contactmpc.reference.synthetic.designs import DEMOS
+from contactmpc.reference.synthetic.gates import check_gates, gate_report
+from contactmpc.reference.synthetic.kinematics import SynthesisError, wrist_angles
+from contactmpc.reference.synthetic.phases import min_jerk
 
 TASKS = ("apple", "bottle", "stapler", "doorknob")
 FREE_BODY_TASKS = {"apple", "bottle", "stapler"}
@@ -18,7 +23,7 @@ FREE_BODY_TASKS = {"apple", "bottle", "stapler"}
 @pytest.fixture(scope="module")
 def refs(scene_for) -> dict[str, Reference]:
     """Each task's synthesised reference, built once for the module."""
-    return {task: synthesize(scene_for(task)) for task in TASKS}
+    return {task: synthesize(scene_for(task), DEMOS[task]) for task in TASKS}
 
 
 def _frames_of(ref: Reference, *names: str) -> np.ndarray:
@@ -126,7 +131,7 @@ def test_kinematic_replay_matches_expected_contacts(task, refs, scene_for) -> No
 
 # ---------------------------------------------------------------------------------- determinism
 def test_synthesis_is_deterministic(refs, scene_for) -> None:
-    again = synthesize(scene_for("doorknob"))
+    again = synthesize(scene_for("doorknob"), DEMOS["doorknob"])
     first = refs["doorknob"]
     for name, value in first.as_arrays().items():
         other = again.as_arrays()[name]
@@ -184,7 +189,8 @@ def test_unknown_task_is_refused(scene_for) -> None:
 
     class Other:
         name = "juggling"
+        reference_path = None
 
     fake = type("FakeScene", (), {"task": Other(), "hand": scene.hand})()
     with pytest.raises(SynthesisError, match="juggling"):
-        synthesize(fake)
+        get_reference(fake)

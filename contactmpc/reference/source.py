@@ -9,6 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from contactmpc.reference.data import Reference
+from contactmpc.reference.synthetic.demonstration import synthesize
+from contactmpc.reference.synthetic.designs import DEMOS
+from contactmpc.reference.synthetic.kinematics import SynthesisError
 from contactmpc.scene import Scene
 
 
@@ -41,12 +44,16 @@ def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Referenc
 
     A task with ``reference_path`` loads that file (a bad file raises
     :class:`~contactmpc.reference.data.ReferenceError` naming the field). Otherwise the task's
-    demonstration is synthesised (deterministically) and, with ``cache_dir``, cached there by a
-    fingerprint of the task and hand parameters.
+    demonstration (:data:`~contactmpc.reference.synthetic.designs.DEMOS`) is synthesised
+    (deterministically) and, with ``cache_dir``, cached there by a fingerprint of the task and hand
+    parameters.
 
     Args:
         scene: the composed scene.
         cache_dir: optional cache directory for synthesised references.
+
+    Raises:
+        SynthesisError: no synthetic demonstration for the task, or its reference fails a gate.
     """
     names = {"joint_names": scene.hand.joint_names, "link_names": scene.hand.link_names}
     if scene.task.reference_path:
@@ -56,9 +63,11 @@ def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Referenc
         path = Path(cache_dir) / f"{scene.task.name}_{_fingerprint(scene)}.npz"
         if path.exists():
             return Reference.load(path, **names)
-    from contactmpc.reference.synthesis import synthesize
-
-    ref = synthesize(scene)
+    demo = DEMOS.get(scene.task.name)
+    if demo is None:
+        name = scene.task.name
+        raise SynthesisError(f"no synthetic demonstration for task {name!r} (known: {sorted(DEMOS)})")
+    ref = synthesize(scene, demo)
     ref.validate(scene.hand.joint_names, scene.hand.link_names)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -19,7 +19,7 @@ measures, over all frames:
 * ``max_wrist_speed``, ``max_wrist_rate``, ``max_finger_rate``: finite-difference speeds (m/s, rad/s).
 
 :func:`check_gates` compares a report with :class:`GateLimits` and raises
-:class:`~contactmpc.reference.synthesis.SynthesisError` on the first failure.
+:class:`~contactmpc.reference.synthetic.kinematics.SynthesisError` on the first failure.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from contactmpc.reference.data import Reference
-from contactmpc.reference.synthesis import Kinematics, SynthesisError
+from contactmpc.reference.synthetic.kinematics import Kinematics, SynthesisError
 
 if TYPE_CHECKING:
     from contactmpc.scene import Scene

@@ -1,9 +1,9 @@
 """One synthetic demonstration per task: object keyframes, grasp targets and phase timings.
 
-Each demo is a :class:`~contactmpc.reference.synthesis.Demonstration` with the same interface;
-:data:`DEMOS` maps a task's ``name`` to its demo, and :func:`contactmpc.reference.synthesis.synthesize`
-builds, gates and returns the reference of a scene's task. Times are the demonstration's own (before
-the task's ``time_scale``).
+Each design is a :class:`~contactmpc.reference.synthetic.demonstration.Demonstration` with the same
+interface; :func:`contactmpc.reference.synthetic.demonstration.synthesize` builds, gates and returns
+the reference of a scene's task from one. :data:`DEMOS` maps a task's ``name`` to its design. Times are
+the demonstration's own (before the task's ``time_scale``).
 
 Grasps are whole-hand power grasps (palm and phalanges), so that more than six links touch the object
 while it is held: the time-to-failure rule of the paper only fires when more than six contacts are
@@ -17,19 +17,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from contactmpc.reference.synthesis import (
-    Approach,
-    Close,
-    ContactTarget,
-    Demonstration,
-    GraspProblem,
-    Kinematics,
-    Move,
-    Open,
-    Phase,
-    Reach,
-    Retreat,
-)
+from contactmpc.reference.synthetic.demonstration import Demonstration
+from contactmpc.reference.synthetic.grasp import ContactTarget, GraspProblem
+from contactmpc.reference.synthetic.kinematics import Kinematics
+from contactmpc.reference.synthetic.phases import Approach, Close, Move, Open, Phase, Reach, Retreat
 
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
