@@ -40,6 +40,7 @@ class TaskConf:
     hand_home: list[float] = field(default_factory=lambda: [0.0] * 22)
     time_scale: float = 5.0
     reference_path: str | None = None
+    demonstration: Any = None
 
 
 @dataclass

@@ -64,6 +64,18 @@ POINT_MASS = """
 """
 
 
+class _GoalCost:
+    """Squared distance of the point mass (sensordata columns 0:2) to a goal, one term per step."""
+
+    terms = ("goal",)
+
+    def __init__(self, goal: np.ndarray) -> None:
+        self.goal = goal
+
+    def __call__(self, sensordata: np.ndarray, window: slice) -> dict[str, np.ndarray]:
+        return {"goal": np.sum((sensordata[..., :2] - self.goal) ** 2, axis=-1)}
+
+
 class PointMassProblem:
     """A toy planning problem: spline targets for a damped point mass that should reach ``goal``.
 
@@ -86,7 +98,7 @@ class PointMassProblem:
             noise_std=np.full(2, sigma),
             controls=lambda theta, basis: np.clip(basis @ theta, ranges[:, 0], ranges[:, 1]),
         )
-        self.cost = lambda sd, window: {"goal": np.sum((sd[..., :2] - self.goal) ** 2, axis=-1)}
+        self.cost = _GoalCost(self.goal)
         self.steps = steps
         data = mujoco.MjData(model)
         self.state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))

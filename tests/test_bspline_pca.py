@@ -208,7 +208,7 @@ def test_pc_control_points_map_exactly_to_joint_control_points(whiten: bool) -> 
     direct = spline.fit(times, curves)
     np.testing.assert_allclose(pcc.joint_control_points(), direct, atol=1e-9)
     np.testing.assert_allclose(pcc.joint_curves(times), spline.evaluate(direct, times), atol=1e-9)
-    np.testing.assert_allclose(pcc.to_pc_control_points(direct), pcc.pc_control_points, atol=1e-9)
+    np.testing.assert_allclose(pcc.pca.to_pc(direct), pcc.pc_control_points, atol=1e-9)
     # The PC-curves are the spline fit of the PC coordinates of the data.
     np.testing.assert_allclose(
         pcc.pc_curves(times), spline.evaluate(spline.fit(times, pcc.pca.to_pc(curves)), times), atol=1e-9

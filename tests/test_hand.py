@@ -37,6 +37,11 @@ def link_geom_ids(hand, model) -> np.ndarray:
     return ids(model, _OBJ.mjOBJ_GEOM, hand.link_geoms, "link geom")
 
 
+def open_pose(hand) -> np.ndarray:
+    """A relaxed open hand: every finger joint at 0 clipped to its range (thumb base at its lower limit)."""
+    return np.clip(np.zeros(hand.num_fingers), *hand.finger_ranges.T)
+
+
 def link_sensor_adr(hand, model) -> tuple[np.ndarray, np.ndarray]:
     pos = ids(model, _OBJ.mjOBJ_SENSOR, [f"{n}_pos" for n in hand.link_names], "sensor")
     quat = ids(model, _OBJ.mjOBJ_SENSOR, [f"{n}_quat" for n in hand.link_names], "sensor")
@@ -152,7 +157,7 @@ def test_joint_ranges_and_open_pose(hand, degree):
     np.testing.assert_allclose(model.jnt_range[jid], ranges, atol=1e-12)
     assert model.jnt_limited[jid].all()
     np.testing.assert_allclose(model.actuator_ctrlrange[actuator_ids(hand, model)], ranges, atol=1e-12)
-    pose = hand.open_pose()
+    pose = open_pose(hand)
     assert pose.shape == (16,)
     assert np.all(pose >= hand.finger_ranges[:, 0]) and np.all(pose <= hand.finger_ranges[:, 1])
     assert pose[hand.FINGER_JOINTS.index("thj0")] == pytest.approx(0.263)
@@ -178,7 +183,7 @@ def test_actuation_parameters(hand, model):
 def test_finger_force_is_clamped(hand, model):
     data = mujoco.MjData(model)
     aid = actuator_ids(hand, model)
-    data.qpos[qpos_adr(hand, model)[hand.num_root :]] = hand.open_pose()
+    data.qpos[qpos_adr(hand, model)[hand.num_root :]] = open_pose(hand)
     data.ctrl[aid[hand.num_root :]] = hand.finger_ranges[:, 1]
     mujoco.mj_forward(model, data)
     assert np.abs(data.actuator_force[aid[hand.num_root :]]).max() == pytest.approx(0.7)
@@ -216,7 +221,7 @@ def test_wrist_kinematics_and_sensors(hand):
     root_pos = np.array([0.1, -0.2, 0.3])
     model, data = _build(hand, root_pos=root_pos)
     wrist = np.array([0.05, -0.03, 0.02, 0.4, -0.3, 1.1])
-    data.qpos[qpos_adr(hand, model)] = np.concatenate([wrist, hand.open_pose()])
+    data.qpos[qpos_adr(hand, model)] = np.concatenate([wrist, open_pose(hand)])
     mujoco.mj_forward(model, data)
     palm = link_body_ids(hand, model)[0]
     R_ref = (
@@ -246,7 +251,7 @@ def test_geoms_attribute_to_links(hand, model):
 
 def test_open_pose_has_no_self_contact(hand, model):
     data = mujoco.MjData(model)
-    data.qpos[qpos_adr(hand, model)[hand.num_root :]] = hand.open_pose()
+    data.qpos[qpos_adr(hand, model)[hand.num_root :]] = open_pose(hand)
     mujoco.mj_forward(model, data)
     assert data.ncon == 0
 
@@ -255,7 +260,7 @@ def test_passive_hold_is_stable(hand):
     """2 s at 1 ms with the wrist servoed in place and the fingers open: no drift, NaN or warning."""
     model, data = _build(hand, root_pos=(0.0, 0.0, 0.3))
     qadr, aid = qpos_adr(hand, model), actuator_ids(hand, model)
-    target = np.concatenate([[0.02, -0.01, 0.05, 0.3, -0.2, 0.5], hand.open_pose()])
+    target = np.concatenate([[0.02, -0.01, 0.05, 0.3, -0.2, 0.5], open_pose(hand)])
     data.qpos[qadr] = target
     data.ctrl[aid] = target
     mujoco.mj_forward(model, data)

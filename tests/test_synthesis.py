@@ -11,7 +11,6 @@ from scipy.spatial.transform import Rotation
 from contactmpc.reference import Reference
 from contactmpc.reference.source import get_reference
 from contactmpc.reference.synthetic.demonstration import synthesize
-from contactmpc.reference.synthetic.designs import DEMOS
 from contactmpc.reference.synthetic.gates import check_gates, gate_report
 from contactmpc.reference.synthetic.kinematics import SynthesisError, wrist_angles
 from contactmpc.reference.synthetic.phases import min_jerk
@@ -23,7 +22,7 @@ FREE_BODY_TASKS = {"apple", "bottle", "stapler"}
 @pytest.fixture(scope="module")
 def refs(scene_for) -> dict[str, Reference]:
     """Each task's synthesised reference, built once for the module."""
-    return {task: synthesize(scene_for(task), DEMOS[task]) for task in TASKS}
+    return {task: synthesize(scene_for(task), scene_for(task).task.demonstration) for task in TASKS}
 
 
 def _frames_of(ref: Reference, *names: str) -> np.ndarray:
@@ -131,7 +130,7 @@ def test_kinematic_replay_matches_expected_contacts(task, refs, scene_for) -> No
 
 # ---------------------------------------------------------------------------------- determinism
 def test_synthesis_is_deterministic(refs, scene_for) -> None:
-    again = synthesize(scene_for("doorknob"), DEMOS["doorknob"])
+    again = synthesize(scene_for("doorknob"), scene_for("doorknob").task.demonstration)
     first = refs["doorknob"]
     for name, value in first.as_arrays().items():
         other = again.as_arrays()[name]
@@ -152,7 +151,7 @@ def test_wrist_angles_match_the_hand_root(scene_for) -> None:
     scene = scene_for("apple")
     m = scene.plant_model
     d = mujoco.MjData(m)
-    root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, scene.hand.ROOT_BODY)
+    root = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, scene.hand.root_body)
     rng = np.random.default_rng(0)
     for _ in range(20):
         angles = rng.uniform([-3.0, -1.4, -3.0], [3.0, 1.4, 3.0])
@@ -184,13 +183,7 @@ def test_check_gates_names_the_failing_gate(refs) -> None:
         check_gates(report)
 
 
-def test_unknown_task_is_refused(scene_for) -> None:
-    scene = scene_for("apple")
-
-    class Other:
-        name = "juggling"
-        reference_path = None
-
-    fake = type("FakeScene", (), {"task": Other(), "hand": scene.hand})()
-    with pytest.raises(SynthesisError, match="juggling"):
-        get_reference(fake)
+def test_task_without_design_or_file_is_refused(scene_for) -> None:
+    scene = scene_for("apple", "task.demonstration=null")
+    with pytest.raises(SynthesisError, match="task 'apple' has no reference_path and no demonstration design"):
+        get_reference(scene)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from contactmpc.reference.bspline import UniformBSpline
-from contactmpc.reference.pca import PCABasis
+from contactmpc.reference.pca import PCABasis, PCACurves
 
 
 class SplineSpace:
@@ -146,9 +146,10 @@ class PCASplineSpace(SplineSpace):
     pca: PCABasis
 
     def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
-        self.pca = PCABasis.fit(fingers, num_components=self.num_components, whiten=self.whiten)
         # PC-curves fitted with the same M (paper §II-A).
-        return spline.fit(times, self.pca.to_pc(fingers))
+        curves = PCACurves.fit(spline, times, fingers, num_components=self.num_components, whiten=self.whiten)
+        self.pca = curves.pca
+        return curves.pc_control_points
 
     def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
         return self.pca.from_pc(finger_theta)

@@ -195,14 +195,6 @@ class AllegroHand(FloatingHand):
     def finger_range(self, joint: str) -> tuple[float, float]:
         return _FINGER_RANGES[joint]
 
-    def open_pose(self) -> np.ndarray:
-        """A relaxed open hand: every finger joint at 0, thumb base ``thj0`` at its lower limit.
-
-        Returns:
-            (num_fingers,) finger joint angles (rad) in finger-joint order, inside the joint limits.
-        """
-        return np.clip(np.zeros(self.num_fingers), *self.finger_ranges.T)
-
     # ------------------------------------------------------------------ building
     def add_fingers(
         self, spec: mujoco.MjSpec, root: mujoco.MjsBody, hinge_unit: float

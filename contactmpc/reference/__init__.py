@@ -15,11 +15,10 @@ is imported by name; prefer ``from contactmpc import reference`` and ``reference
 """
 
 from contactmpc.reference.bspline import UniformBSpline
-from contactmpc.reference.data import NUM_HAND_DOFS, QUAT_NORM_TOLERANCE, Reference, ReferenceError
+from contactmpc.reference.data import QUAT_NORM_TOLERANCE, Reference, ReferenceError
 from contactmpc.reference.pca import PCABasis, PCACurves
 
 __all__ = [
-    "NUM_HAND_DOFS",
     "QUAT_NORM_TOLERANCE",
     "PCABasis",
     "PCACurves",

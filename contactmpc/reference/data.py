@@ -6,7 +6,7 @@ File format (``np.savez_compressed``, loadable with ``allow_pickle=False``; one 
 key                        shape        dtype       meaning
 =========================  ===========  ==========  ===================================================
 ``time``                   (T,)         float64     seconds, strictly increasing
-``hand_qpos``              (T, 22)      float64     wrist x, y, z, rx, ry, rz then 16 finger joints
+``hand_qpos``              (T, J)       float64     the hand's joints: root (wrist) DOFs, then fingers
 ``object_qpos``            (T, n_o)     float64     object configuration (free-body pos + unit quat
                                                     w, x, y, z at ``meta["object_quat_index"]``, then
                                                     articulation angles)
@@ -15,7 +15,7 @@ key                        shape        dtype       meaning
 ``contact_object_point``   (T, L, 3)    float64     corresponding point, object-body-local frame
 ``contact_object_body``    (T, L)       integer     index into ``object_bodies`` of that body
 ``link_names``             (L,)         unicode     hand link (body) names
-``joint_names``            (22,)        unicode     hand joint names, in ``hand_qpos`` column order
+``joint_names``            (J,)         unicode     hand joint names, in ``hand_qpos`` column order
 ``object_bodies``          (B,)         unicode     object body names (B >= 1)
 ``task``                   ()           unicode     task name
 ``meta``                   ()           unicode     JSON object: source, units, version, time_scale,
@@ -39,10 +39,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["NUM_HAND_DOFS", "QUAT_NORM_TOLERANCE", "Reference", "ReferenceError"]
-
-NUM_HAND_DOFS = 22
-"""Hand configuration size: 6 wrist DOFs (x, y, z, rx, ry, rz) + 16 finger joints."""
+__all__ = ["QUAT_NORM_TOLERANCE", "Reference", "ReferenceError"]
 
 QUAT_NORM_TOLERANCE = 1e-3
 """Allowed deviation of the object quaternion norm from 1."""
@@ -79,7 +76,8 @@ class Reference:
 
     Attributes:
         time: ``(T,)`` float64 seconds, strictly increasing.
-        hand_qpos: ``(T, 22)`` float64, wrist (x, y, z, rx, ry, rz) then 16 finger joints.
+        hand_qpos: ``(T, J)`` float64, in ``joint_names`` order (for the Allegro hand: wrist x, y, z,
+            rx, ry, rz then 16 finger joints).
         object_qpos: ``(T, n_o)`` float64; the free-body quaternion (w, x, y, z), if any, starts at
             column ``meta["object_quat_index"]``.
         contact_active: ``(T, L)`` bool, whether link ``l`` is expected in contact.
@@ -88,7 +86,7 @@ class Reference:
         contact_object_body: ``(T, L)`` int, index into ``object_bodies`` of the body that
             ``contact_object_point`` is expressed in (0 for single-body objects).
         link_names: ``(L,)`` str.
-        joint_names: ``(22,)`` str, column order of ``hand_qpos``.
+        joint_names: ``(J,)`` str, column order of ``hand_qpos``.
         object_bodies: ``(B,)`` str.
         task: task name.
         meta: JSON-serialisable dict (source, units, version, time_scale, object_quat_index, ...).
@@ -141,7 +139,8 @@ class Reference:
         """Check every field; raise on the first problem.
 
         Args:
-            expected_joint_names: the hand's 22 joint names in qpos order, if known.
+            expected_joint_names: the hand's joint names in qpos order, if known (they fix ``J``;
+                otherwise ``J`` is the length of the reference's own ``joint_names``).
             expected_link_names: the hand links the contacts must refer to, in order, if known.
             path: file name to put in error messages.
 
@@ -181,26 +180,26 @@ class Reference:
             fail("time", f"expected shape (T,) with T >= 1, got {time.shape}")
         num_t = time.shape[0]
         num_l = len(self.link_names)
+        num_j = len(self.joint_names if expected_joint_names is None else expected_joint_names)
         num_b = len(self.object_bodies)
         if num_b < 1:
             fail("object_bodies", "expected at least one object body, got none")
         object_qpos = np.asarray(self.object_qpos)
         expected = {
-            "hand_qpos": ((num_t, NUM_HAND_DOFS), "(T, 22)"),
+            "hand_qpos": ((num_t, num_j), "(T, J)"),
             "object_qpos": ((num_t, object_qpos.shape[-1] if object_qpos.ndim == 2 else -1), "(T, n_o)"),
             "contact_active": ((num_t, num_l), "(T, L)"),
             "contact_link_point": ((num_t, num_l, 3), "(T, L, 3)"),
             "contact_object_point": ((num_t, num_l, 3), "(T, L, 3)"),
             "contact_object_body": ((num_t, num_l), "(T, L)"),
-            "joint_names": ((NUM_HAND_DOFS,), "(22,)"),
+            "joint_names": ((num_j,), "(J,)"),
         }
         for name, (shape, label) in expected.items():
             got = np.shape(getattr(self, name))
             if got != shape:
-                origin = " (T from 'time', L from 'link_names')" if "L" in label else " (T from 'time')"
-                if "T" not in label:
-                    fail(name, f"expected shape {shape}, got {got}")
-                fail(name, f"expected shape {label} = {shape}{origin}, got {got}")
+                sources = {"T": "T from 'time'", "L": "L from 'link_names'", "J": "J from the joint names"}
+                origin = ", ".join(v for k, v in sources.items() if k in label)
+                fail(name, f"expected shape {label} = {shape} ({origin}), got {got}")
 
         # values
         for name in _FLOAT_FIELDS:

@@ -142,12 +142,6 @@ class PCABasis:
         return self._variance
 
     @property
-    def explained_variance_ratio(self) -> np.ndarray:
-        """Fraction of the total variance carried by each component, shape ``(k,)``."""
-        total = float(np.sum(self._variance))
-        return self._variance / total if total > 0 else np.zeros_like(self._variance)
-
-    @property
     def whiten(self) -> bool:
         """Whether PC coordinates are divided by ``spread``."""
         return self._whiten
@@ -266,17 +260,6 @@ class PCACurves:
             Shape ``(..., M, D)``: ``pca.from_pc`` applied to every control point.
         """
         return self.pca.from_pc(self._cp(pc_control_points))
-
-    def to_pc_control_points(self, joint_control_points: np.ndarray) -> np.ndarray:
-        """PC control points of joint control points (the inverse map when ``k = D``).
-
-        Args:
-            joint_control_points: shape ``(..., M, D)``.
-
-        Returns:
-            Shape ``(..., M, k)``.
-        """
-        return self.pca.to_pc(joint_control_points)
 
     def pc_curves(self, times: np.ndarray, pc_control_points: np.ndarray | None = None) -> np.ndarray:
         """Evaluate the PC-curves ``B_M(PC_i)(t)``.

@@ -1,4 +1,6 @@
-"""Where a trial's reference comes from: a user's ``.npz`` or the task's synthesised demonstration."""
+"""Where a trial's reference comes from: a user's ``.npz`` (``task.reference_path``) or the task's
+synthesised demonstration (``task.demonstration``, a design from
+:mod:`contactmpc.reference.synthetic.designs` chosen in the task's config)."""
 
 from __future__ import annotations
 
@@ -9,14 +11,13 @@ from pathlib import Path
 import numpy as np
 
 from contactmpc.reference.data import Reference
-from contactmpc.reference.synthetic.demonstration import synthesize
-from contactmpc.reference.synthetic.designs import DEMOS
+from contactmpc.reference.synthetic.demonstration import SYNTHESIS_VERSION, synthesize
 from contactmpc.reference.synthetic.kinematics import SynthesisError
 from contactmpc.scene import Scene
 
 
 def _fingerprint(scene: Scene) -> str:
-    """A short hash of everything a synthesis depends on: task and hand parameters, package version."""
+    """A short hash of everything a synthesis depends on: task, design and hand parameters, versions."""
     from contactmpc import __version__
 
     def public(obj) -> dict:
@@ -31,7 +32,10 @@ def _fingerprint(scene: Scene) -> str:
             "task": type(scene.task).__name__,
             "t": public(scene.task),
             "h": public(scene.hand),
+            "d": f"{type(scene.task.demonstration).__module__}.{type(scene.task.demonstration).__qualname__}",
+            "dv": public(scene.task.demonstration),
             "v": __version__,
+            "sv": SYNTHESIS_VERSION,
         },
         sort_keys=True,
         default=str,
@@ -44,29 +48,30 @@ def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Referenc
 
     A task with ``reference_path`` loads that file (a bad file raises
     :class:`~contactmpc.reference.data.ReferenceError` naming the field). Otherwise the task's
-    demonstration (:data:`~contactmpc.reference.synthetic.designs.DEMOS`) is synthesised
-    (deterministically) and, with ``cache_dir``, cached there by a fingerprint of the task and hand
-    parameters.
+    ``demonstration`` design is synthesised (deterministically) and, with ``cache_dir``, cached there
+    by a fingerprint of the task, design and hand parameters.
 
     Args:
         scene: the composed scene.
         cache_dir: optional cache directory for synthesised references.
 
     Raises:
-        SynthesisError: no synthetic demonstration for the task, or its reference fails a gate.
+        SynthesisError: the task has neither a reference file nor a demonstration design, or the
+            synthesised reference fails a gate.
     """
     names = {"joint_names": scene.hand.joint_names, "link_names": scene.hand.link_names}
     if scene.task.reference_path:
         return Reference.load(scene.task.reference_path, **names)
+    demo = scene.task.demonstration
+    if demo is None:
+        raise SynthesisError(
+            f"task {scene.task.name!r} has no reference_path and no demonstration design to synthesise"
+        )
     path = None
     if cache_dir is not None:
         path = Path(cache_dir) / f"{scene.task.name}_{_fingerprint(scene)}.npz"
         if path.exists():
             return Reference.load(path, **names)
-    demo = DEMOS.get(scene.task.name)
-    if demo is None:
-        name = scene.task.name
-        raise SynthesisError(f"no synthetic demonstration for task {name!r} (known: {sorted(DEMOS)})")
     ref = synthesize(scene, demo)
     ref.validate(scene.hand.joint_names, scene.hand.link_names)
     if path is not None:

@@ -32,7 +32,7 @@ def summarise_contacts(
 
     Args:
         kin: kinematics of the scene.
-        hand_qpos: (T, 22) hand configurations.
+        hand_qpos: (T, J) hand configurations.
         object_qpos: (T, n_o) object configurations.
         threshold: contact distance (m).
 

@@ -27,7 +27,6 @@ from contactmpc.reference.data import Reference
 from contactmpc.reference.synthetic.contacts import summarise_contacts
 from contactmpc.reference.synthetic.gates import check_gates, gate_report
 from contactmpc.reference.synthetic.grasp import (
-    _FLEXION,
     Grasp,
     GraspProblem,
     GraspSchedule,
@@ -36,7 +35,7 @@ from contactmpc.reference.synthetic.grasp import (
     solve_preshape,
 )
 from contactmpc.reference.synthetic.kinematics import Kinematics, Pose
-from contactmpc.reference.synthetic.phases import Phase, PhaseContext, object_quat_index
+from contactmpc.reference.synthetic.phases import Phase, PhaseContext
 
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
@@ -54,7 +53,7 @@ def suggest_num_control_points(
 
     Args:
         time: (T,) seconds.
-        hand_qpos: (T, 22) curves.
+        hand_qpos: (T, J) curves (wrist slides first).
         tol_slide: max error of the wrist slides (m).
         tol_angle: max error of the angles (rad).
 
@@ -119,10 +118,12 @@ class Demonstration:
         raise NotImplementedError
 
     def preshape(self, scene: Scene, kin: Kinematics, problem: GraspProblem, grasp: Grasp) -> np.ndarray:
-        """(16,) open fingers for approach and release: :func:`solve_preshape` started from the grasp's
-        fingers with their flexion opened by ``open_fraction``."""
+        """(num_fingers,) open fingers for approach and release: :func:`solve_preshape` started from the
+        grasp's fingers with their flexion joints (``hand.flexion_joints``) opened by ``open_fraction``."""
+        hand = scene.hand
+        flexion = np.array([hand.finger_joints.index(j) for j in hand.flexion_joints], dtype=int)
         fingers = grasp.fingers.copy()
-        fingers[_FLEXION] *= 1.0 - self.open_fraction
+        fingers[flexion] *= 1.0 - self.open_fraction
         return solve_preshape(
             kin,
             problem,
@@ -161,14 +162,14 @@ class Demonstration:
         def hand(offset: Pose, fingers: np.ndarray, qo: np.ndarray, reference: np.ndarray) -> np.ndarray:
             kin.set(first.hand_qpos, qo)
             wrist = kin.body_pose(body) * offset
-            return np.concatenate([kin.wrist_qpos(wrist, reference[:6]), fingers])
+            return np.concatenate([kin.wrist_qpos(wrist, reference[: kin.num_root]), fingers])
 
         def regrasp(qo: np.ndarray, init: np.ndarray) -> Grasp:
             step = dataclasses.replace(
                 problem,
                 object_qpos=qo,
                 initial=init,
-                natural=init[6:],
+                natural=init[kin.num_root :],
                 natural_weight=self.regrasp_weight,
                 wrist_weight=self.regrasp_weight,
                 wrist_position_weight=self.regrasp_weight,
@@ -231,14 +232,15 @@ class Demonstration:
             approach_offset=body0.rot.inv().apply(np.asarray(self.approach_offset, float)),
             object_qpos=initial_qo,
             wrist=home_wrist,
-            fingers=task.hand_home[6:].copy(),
+            fingers=task.hand_home[kin.num_root :].copy(),
         )
         phases = self.phases(scene)
         frames = [max(1, round(p.duration * self.rate)) for p in phases]
         num_t = sum(frames) + 1
         wrists: list[Pose] = []
-        fingers = np.zeros((num_t, 16))
-        objects = np.zeros((num_t, task.qo_dim))
+        root = slice(0, kin.num_root)
+        fingers = np.zeros((num_t, scene.hand.num_fingers))
+        objects = np.zeros((num_t, task.layout.width))
         phase_meta, keyframes = [], [{"time": 0.0, "object_qpos": initial_qo.tolist()}]
         k = 0
         for i, (phase, n) in enumerate(zip(phases, frames, strict=True)):
@@ -255,12 +257,12 @@ class Demonstration:
             )
             keyframes.append({"time": start + n / self.rate, "object_qpos": np.asarray(qo).tolist()})
             ctx.wrist, ctx.fingers, ctx.object_qpos = w, np.asarray(f, float), np.asarray(qo, float)
-        hand = np.zeros((num_t, 22))
-        prev = task.hand_home[:6]
+        hand = np.zeros((num_t, scene.hand.num_joints))
+        prev = task.hand_home[root]
         for t, w in enumerate(wrists):
-            hand[t, :6] = kin.wrist_qpos(w, prev)
-            prev = hand[t, :6]
-        hand[:, 6:] = fingers
+            hand[t, root] = kin.wrist_qpos(w, prev)
+            prev = hand[t, root]
+        hand[:, root.stop :] = fingers
         time = np.arange(num_t) / self.rate
         active, link_pt, obj_pt, obj_body = summarise_contacts(kin, hand, objects, self.contact_threshold)
         meta = {
@@ -270,7 +272,7 @@ class Demonstration:
             "units": "m, rad, s",
             "time_scale": task.time_scale,
             "sample_rate": self.rate,
-            "object_quat_index": object_quat_index(task),
+            "object_quat_index": task.layout.quat_index,
             "num_control_points": suggest_num_control_points(time, hand),
             "contact_threshold": self.contact_threshold,
             "grasp_body": first.body,

@@ -2,7 +2,8 @@
 
 Each design is a :class:`~contactmpc.reference.synthetic.demonstration.Demonstration` with the same
 interface; :func:`contactmpc.reference.synthetic.demonstration.synthesize` builds, gates and returns
-the reference of a scene's task from one. :data:`DEMOS` maps a task's ``name`` to its design. Times are
+the reference of a scene's task from one. A task's config names its design (``demonstration:`` with a
+``_target_`` in ``conf/task/<task>.yaml``), so the task holds it as ``task.demonstration``. Times are
 the demonstration's own (before the task's ``time_scale``).
 
 Grasps are whole-hand power grasps (palm and phalanges), so that more than six links touch the object
@@ -25,7 +26,7 @@ from contactmpc.reference.synthetic.phases import Approach, Close, Move, Open, P
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
 
-__all__ = ["DEMOS", "AppleDemo", "BottleDemo", "DoorknobDemo", "StaplerDemo"]
+__all__ = ["AppleDemo", "BottleDemo", "DoorknobDemo", "StaplerDemo"]
 
 _T = ContactTarget
 
@@ -58,7 +59,7 @@ class AppleDemo(Demonstration):
         qo = scene.task.initial_object_qpos(kin.model)
         init = scene.task.hand_home.copy()
         init[:3] = qo[:3] + [0.05, 0.0, 0.053] - kin.root_offset
-        init[6:] = _fingers([0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers([0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [1.2, 0.3, 0.5, 0.5])
         targets = (
             _T("palm", toward=(0.0, 0.0, 0.037)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial", "tip")),
@@ -102,7 +103,7 @@ class BottleDemo(Demonstration):
         qo = scene.task.initial_object_qpos(kin.model)
         init = scene.task.hand_home.copy()
         init[:3] = qo[:3] + [0.04, -0.045, -0.01] - kin.root_offset
-        init[6:] = _fingers([0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers([0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [1.2, 0.3, 0.5, 0.5])
         targets = (
             _T("palm", toward=(0.0, -0.0325, -0.01)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial", "tip")),
@@ -155,7 +156,7 @@ class StaplerDemo(Demonstration):
         init = scene.task.hand_home.copy()
         init[:3] = qo[:3] + [0.0, -0.03, 0.065] - kin.root_offset
         init[4:6] = [scene.task.open_angle, np.pi / 2]  # palm along the open arm, fingers towards -y
-        init[6:] = _fingers([0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers([0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [1.2, 0.3, 0.5, 0.5])
         targets = (
             _T("palm", weight=3.0, geoms=("stapler_top_col",), toward=(0.07, 0.0, 0.01)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial")),
@@ -215,7 +216,7 @@ class DoorknobDemo(Demonstration):
         knob = kin.body_pose(kin.body_id("knob")).pos
         init = scene.task.hand_home.copy()
         init[:3] = knob + [0.035, -0.032, 0.0] - kin.root_offset
-        init[6:] = _fingers([0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers([0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [1.2, 0.3, 0.5, 0.5])
         targets = (
             _T("palm", weight=2.0, toward=(0.0, -0.02, 0.0)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("medial", "tip")),
@@ -248,11 +249,3 @@ class DoorknobDemo(Demonstration):
             Open(duration=1.0),
             Retreat(duration=1.0),
         ]
-
-
-DEMOS: dict[str, Demonstration] = {
-    "apple": AppleDemo(),
-    "bottle": BottleDemo(),
-    "stapler": StaplerDemo(),
-    "doorknob": DoorknobDemo(),
-}

@@ -145,9 +145,10 @@ def gate_report(scene: Scene, ref: Reference, kin: Kinematics | None = None) -> 
     report["start_error"] = float(np.abs(start).max())
     dt = np.diff(ref.time)[:, None]
     vel = np.diff(ref.hand_qpos, axis=0) / dt
+    n = scene.hand.num_root  # the floating wrist: slides [:3], hinges [3:n]; fingers [n:]
     report["max_wrist_speed"] = float(np.linalg.norm(vel[:, :3], axis=1).max()) if len(vel) else 0.0
-    report["max_wrist_rate"] = float(np.abs(vel[:, 3:6]).max()) if len(vel) else 0.0
-    report["max_finger_rate"] = float(np.abs(vel[:, 6:]).max()) if len(vel) else 0.0
+    report["max_wrist_rate"] = float(np.abs(vel[:, 3:n]).max()) if len(vel) else 0.0
+    report["max_finger_rate"] = float(np.abs(vel[:, n:]).max()) if len(vel) else 0.0
     return report
 
 
@@ -162,7 +163,7 @@ def _keyframe_errors(task, ref: Reference) -> dict:
     times = np.array([k["time"] for k in keyframes])
     frames = np.array([int(np.argmin(np.abs(ref.time - t))) for t in times])
     want = np.array([k["object_qpos"] for k in keyframes], float)
-    err = task.object_error(ref.object_qpos[frames], want)
+    err = task.layout.error(ref.object_qpos[frames], want)
     off = np.abs(ref.time[frames] - times).max()  # a keyframe between samples counts as misplaced
     return {
         "keyframe_position_error": float(err.position.max()) + float(off > 1e-9),

@@ -3,7 +3,7 @@ and a schedule of grasps re-solved along one object coordinate.
 
 * A **grasp problem** (:class:`GraspProblem`) is solved once, in the frame of one object body, by
   bounded least squares (``scipy.optimize.least_squares``, bounds = the hand's joint ranges) over the
-  22 hand DOFs: designated links onto the object (signed distances from ``mj_geomDistance``), no
+  hand's DOFs: designated links onto the object (signed distances from ``mj_geomDistance``), no
   penetration of the object, the fixtures or the hand itself (every geom pair MuJoCo's own filtering
   would test, as a smooth softplus penalty), and a regulariser towards a natural finger pose
   (:func:`solve_grasp`). The solved :class:`Grasp` keeps the grasp offset of the hand root,
@@ -69,11 +69,11 @@ class GraspProblem:
     Attributes:
         body: object body the grasp is expressed in (the hand rides with it).
         object_qpos: (n_o,) object configuration at which the grasp is solved.
-        initial: (22,) initial guess (wrist in world, fingers).
+        initial: (J,) initial guess (wrist in world, fingers).
         targets: the links to bring into contact.
         target_geoms: object geom names the hand may touch (None: every colliding object geom of
             ``body`` and its descendants, e.g. the stapler's base and arm); other geoms are obstacles.
-        natural: (16,) natural finger pose of the regulariser (None: ``initial``'s fingers).
+        natural: (num_fingers,) natural finger pose of the regulariser (None: ``initial``'s fingers).
         natural_weight: per rad of finger deviation.
         wrist_weight: per rad of wrist hinge deviation from ``initial`` (keeps the hand's orientation).
         wrist_position_weight: per cm of wrist slide deviation from ``initial``.
@@ -103,8 +103,9 @@ class Grasp:
     """A solved grasp.
 
     Attributes:
-        hand_qpos: (22,) hand configuration at ``object_qpos`` (world wrist).
+        hand_qpos: (J,) hand configuration at ``object_qpos`` (world wrist).
         object_qpos: (n_o,) object configuration it was solved at.
+        num_root: root (wrist) DOFs at the start of ``hand_qpos``; the fingers follow.
         body: grasp body name; ``offset``: the hand root's pose in that body's frame.
         target_distance: (n_targets,) signed distance of each target link to the object (m).
         max_penetration: deepest hand–object penetration (m, >= 0).
@@ -115,6 +116,7 @@ class Grasp:
 
     hand_qpos: np.ndarray
     object_qpos: np.ndarray
+    num_root: int
     body: str
     offset: Pose
     target_distance: np.ndarray
@@ -125,8 +127,8 @@ class Grasp:
 
     @property
     def fingers(self) -> np.ndarray:
-        """(16,) finger joint angles."""
-        return self.hand_qpos[6:]
+        """(num_fingers,) finger joint angles."""
+        return self.hand_qpos[self.num_root :]
 
 
 class _GraspResidual:
@@ -168,7 +170,7 @@ class _GraspResidual:
             if t.toward is not None
         ]
         self.natural = np.asarray(
-            problem.initial[6:] if problem.natural is None else problem.natural, dtype=float
+            problem.initial[kin.num_root :] if problem.natural is None else problem.natural, dtype=float
         )
         self.is_allowed = np.zeros(kin.model.ngeom, bool)
         self.is_allowed[self.allowed] = True
@@ -223,21 +225,22 @@ class _GraspResidual:
                 centre = d.geom_xpos[self.kin.link_geoms[self.target_link[k]]]
                 parts.append(weight * (centre - pos - mat @ point) / self._TOWARD_SCALE)
         parts.append(self.penalties()[0])
-        parts.append(p.natural_weight * (x[6:] - self.natural))
+        n = self.kin.num_root  # wrist: slides [:3], hinges [3:n]; fingers [n:]
+        parts.append(p.natural_weight * (x[n:] - self.natural))
         if p.wrist_weight > 0:
-            parts.append(p.wrist_weight * (x[3:6] - p.initial[3:6]))
+            parts.append(p.wrist_weight * (x[3:n] - p.initial[3:n]))
         if p.wrist_position_weight > 0:
             parts.append(p.wrist_position_weight * (x[:3] - p.initial[:3]) / self._TOWARD_SCALE)
         return np.concatenate(parts)
 
 
 def solve_grasp(kin: Kinematics, problem: GraspProblem, ranges: np.ndarray) -> Grasp:
-    """Solve a grasp by bounded least squares over the 22 hand DOFs.
+    """Solve a grasp by bounded least squares over the hand's DOFs.
 
     Args:
         kin: kinematics of the scene.
         problem: the grasp problem.
-        ranges: (22, 2) joint limits (the bounds).
+        ranges: (J, 2) joint limits (the bounds).
 
     Returns:
         The grasp (its offset expressed in the frame of ``problem.body``).
@@ -246,7 +249,8 @@ def solve_grasp(kin: Kinematics, problem: GraspProblem, ranges: np.ndarray) -> G
     span = hi - lo
     x0 = np.clip(np.asarray(problem.initial, float), lo + 1e-6 * span, hi - 1e-6 * span)
     fun = _GraspResidual(kin, problem)
-    x_scale = np.concatenate([np.full(3, 0.02), np.full(3, 0.2), np.full(16, 0.3)])
+    n = kin.num_root  # wrist slides (m), wrist hinges (rad), fingers
+    x_scale = np.concatenate([np.full(3, 0.02), np.full(n - 3, 0.2), np.full(len(x0) - n, 0.3)])
     sol = least_squares(
         fun,
         x0,
@@ -265,6 +269,7 @@ def solve_grasp(kin: Kinematics, problem: GraspProblem, ranges: np.ndarray) -> G
     return Grasp(
         hand_qpos=x.copy(),
         object_qpos=fun.object_qpos.copy(),
+        num_root=kin.num_root,
         body=problem.body,
         offset=body.inv() * root,
         target_distance=dist,
@@ -273,10 +278,6 @@ def solve_grasp(kin: Kinematics, problem: GraspProblem, ranges: np.ndarray) -> G
         cost=float(sol.cost),
         evaluations=int(sol.nfev),
     )
-
-
-_FLEXION = np.array([1, 2, 3, 5, 6, 7, 9, 10, 11, 14, 15])
-"""Finger-vector indices of the flexion joints (1-3 of each long finger, 2-3 of the thumb)."""
 
 
 def solve_preshape(
@@ -294,7 +295,7 @@ def solve_preshape(
 ) -> np.ndarray:
     """Open fingers for the approach to a grasp, such that approaching and closing are collision-free.
 
-    Bounded least squares over the 16 finger joints ``x``:
+    Bounded least squares over the finger joints ``x``:
 
     * approach: with the wrist at the grasp pose shifted by ``k / (approach_steps - 1) *
       approach_offset``, every finger link keeps ``standoff`` from the object;
@@ -309,8 +310,8 @@ def solve_preshape(
         problem: the grasp problem (object configuration, obstacles, clearances).
         grasp: the solved grasp.
         approach_offset: (3,) world offset of the pre-grasp wrist from the grasp wrist.
-        finger_ranges: (16, 2) joint limits.
-        initial: (16,) initial guess (default: the grasp's fingers).
+        finger_ranges: (num_fingers, 2) joint limits.
+        initial: (num_fingers,) initial guess (default: the grasp's fingers).
         standoff: distance (m) of every finger link from the object while approaching.
         approach_steps: wrist poses sampled along the approach.
         close_steps: interior points sampled along the close.
@@ -318,14 +319,14 @@ def solve_preshape(
         max_nfev: budget of residual evaluations.
 
     Returns:
-        (16,) finger joint angles.
+        (num_fingers,) finger joint angles.
     """
     res = _GraspResidual(kin, problem)
     kin.set(grasp.hand_qpos, res.object_qpos)
     wrist = kin.root_pose()
     wrists = [
         kin.wrist_qpos(
-            wrist.translated(k / max(approach_steps - 1, 1) * approach_offset), grasp.hand_qpos[:6]
+            wrist.translated(k / max(approach_steps - 1, 1) * approach_offset), grasp.hand_qpos[: kin.num_root]
         )
         for k in range(approach_steps)
     ]
@@ -378,7 +379,7 @@ class GraspSchedule:
     initial: int = 0
 
     def at(self, object_qpos: np.ndarray) -> tuple[Pose, np.ndarray]:
-        """Offset of the hand root in the grasp body's frame and (16,) fingers at ``object_qpos``."""
+        """Offset of the hand root in the grasp body's frame and the fingers at ``object_qpos``."""
         if self.column is None or len(self.grasps) == 1:
             g = self.grasps[0]
             return g.offset, g.fingers.copy()

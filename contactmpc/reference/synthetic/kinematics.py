@@ -17,14 +17,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-if TYPE_CHECKING:
-    from contactmpc.scene import Scene
+from contactmpc.scene import Scene, SceneIndex
 
 __all__ = ["Contacts", "Kinematics", "Pose", "SynthesisError", "wrist_angles"]
 
@@ -124,7 +122,8 @@ class Kinematics:
 
     Attributes:
         model, data: the copy and its data.
-        hand_qpos_adr: (22,) qpos addresses of the hand joints, in the hand's joint order.
+        num_root: number of root (wrist) DOFs of the hand, the first entries of a hand configuration.
+        hand_qpos_adr: (J,) qpos addresses of the hand joints, in the hand's joint order.
         object_qpos_adr: (n_o,) qpos addresses of ``q_o``.
         root_body: body id of the hand root; ``root_offset`` (3,) its world position at zero wrist.
         link_bodies, link_geoms: (L,) body ids and collision geom ids of the hand links.
@@ -151,15 +150,17 @@ class Kinematics:
         self.hand = scene.hand
         self.task = scene.task
         m = self.model
-        self.hand_qpos_adr = scene.hand.qpos_adr(m)
-        self.object_qpos_adr = scene.task.qo_qpos_indices(m)
-        self.root_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, scene.hand.ROOT_BODY)
+        index = SceneIndex.resolve(m, scene.hand, scene.task)
+        self.num_root = scene.hand.num_root
+        self.hand_qpos_adr = index.hand_qpos
+        self.object_qpos_adr = index.object_qpos
+        self.root_body = index.root_body
         self.root_offset = m.body_pos[self.root_body].copy()
         self.link_names = tuple(scene.hand.link_names)
-        self.link_bodies = scene.hand.link_body_ids(m)
-        self.link_geoms = scene.hand.link_geom_ids(m)
-        self.link_of_geom = scene.hand.geom_link_index(m)
-        self.object_bodies = np.array([self.body_id(n) for n in scene.task.object_bodies], dtype=int)
+        self.link_bodies = index.link_bodies
+        self.link_geoms = index.link_geoms
+        self.link_of_geom = index.link_of_geom
+        self.object_bodies = index.object_bodies
         owner = -np.ones(m.nbody, dtype=int)
         for b in range(1, m.nbody):  # parents precede children in MuJoCo's body order
             hit = np.flatnonzero(self.object_bodies == b)
@@ -233,8 +234,13 @@ class Kinematics:
         return self.body_pose(self.root_body)
 
     def wrist_qpos(self, pose: Pose, reference: np.ndarray) -> np.ndarray:
-        """(6,) wrist joint values putting the hand root at ``pose`` (hinges closest to ``reference[3:]``)."""
-        return np.concatenate([pose.pos - self.root_offset, wrist_angles(pose.rot, reference[3:6])])
+        """(num_root,) wrist joint values putting the hand root at ``pose``.
+
+        The wrist of :class:`~contactmpc.hands.base.FloatingHand`: three slides (the root's offset from
+        its zero), then three hinges (:func:`wrist_angles`, closest to those of ``reference``).
+        """
+        hinges = wrist_angles(pose.rot, reference[3 : self.num_root])
+        return np.concatenate([pose.pos - self.root_offset, hinges])
 
     # -- distances
     def distance(self, geom1: int, geom2: int, distmax: float = 0.3) -> tuple[float, np.ndarray]:

@@ -34,9 +34,7 @@ __all__ = [
     "PhaseContext",
     "Reach",
     "Retreat",
-    "interpolate_object_qpos",
     "min_jerk",
-    "object_quat_index",
 ]
 
 
@@ -47,43 +45,6 @@ def min_jerk(s: np.ndarray | float) -> np.ndarray:
     return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
 
 
-def object_quat_index(task: Task) -> int | None:
-    """Column of the first free joint's quaternion (w x y z) in ``q_o``, or None without a free joint."""
-    col = 0
-    for joint in task.object_joints:
-        if joint.kind == "free":
-            return col + 3
-        col += 1  # hinge or slide
-    return None
-
-
-def interpolate_object_qpos(task: Task, qa: np.ndarray, qb: np.ndarray, s: float) -> np.ndarray:
-    """Object configuration between ``qa`` (s = 0) and ``qb`` (s = 1).
-
-    Free joints: linear position and slerp of the quaternion; hinges and slides: linear.
-
-    Returns:
-        (n_o,) the configuration (quaternion with the sign of ``qa``'s).
-    """
-    qa, qb = np.asarray(qa, float), np.asarray(qb, float)
-    out = (1.0 - s) * qa + s * qb
-    col = 0
-    for joint in task.object_joints:
-        if joint.kind == "free":
-            ra = Rotation.from_quat(qa[col + 3 : col + 7], scalar_first=True)
-            rb = Rotation.from_quat(qb[col + 3 : col + 7], scalar_first=True)
-            rot = ra * Rotation.from_rotvec(s * (ra.inv() * rb).as_rotvec())
-            quat = rot.as_quat(scalar_first=True)
-            if np.dot(quat, qa[col + 3 : col + 7]) < 0:
-                quat = -quat
-            out[col + 3 : col + 7] = quat
-            col += 7
-        else:
-            col += 1
-    return out
-
-
-# ------------------------------------------------------------------------------------------ phases
 @dataclass
 class PhaseContext:
     """What a phase needs: the scene's kinematics, the grasp and the state where the phase starts."""
@@ -92,8 +53,8 @@ class PhaseContext:
     task: Task
     body: int
     schedule: GraspSchedule
-    home: np.ndarray  # (22,)
-    preshape: np.ndarray  # (16,)
+    home: np.ndarray  # (J,)
+    preshape: np.ndarray  # (num_fingers,)
     approach_offset: np.ndarray  # (3,) in the grasp body's frame at the grasp
     object_qpos: np.ndarray  # at the start of the phase
     wrist: Pose  # root pose at the start of the phase
@@ -128,7 +89,7 @@ class Phase:
     holding = False  # the hand holds (and moves with) the object throughout
 
     def sample(self, s: float, ctx: PhaseContext) -> tuple[Pose, np.ndarray, np.ndarray]:
-        """Root pose, (16,) fingers and (n_o,) object configuration at progress ``s``."""
+        """Root pose, (num_fingers,) fingers and (n_o,) object configuration at progress ``s``."""
         raise NotImplementedError
 
 
@@ -183,7 +144,7 @@ class Move(Phase):
 
     def sample(self, s, ctx):
         target = ctx.object_qpos if self.object_qpos is None else np.asarray(self.object_qpos, float)
-        qo = interpolate_object_qpos(ctx.task, ctx.object_qpos, target, float(min_jerk(s)))
+        qo = ctx.task.layout.interpolate(ctx.object_qpos, target, float(min_jerk(s)))
         wrist, fingers = ctx.ride(qo)
         return wrist, fingers, qo
 
