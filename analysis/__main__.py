@@ -27,6 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis``; returns the exit status."""
     from analysis._cli import run
+    from analysis.aggregate import RECORD_NAME, load_records
     from analysis.report import write_all
 
     args = build_parser().parse_args(argv)
@@ -41,7 +42,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         return f"wrote {', '.join(map(str, written))} ({len(df)} trials)"
 
-    return run(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
+    return run(
+        args.sweep_dirs,
+        action,
+        (OSError, RuntimeError, ValueError),
+        load=load_records,
+        record_name=RECORD_NAME,
+    )
 
 
 if __name__ == "__main__":

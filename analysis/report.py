@@ -17,7 +17,16 @@ import numpy as np
 import pandas as pd
 from scipy.stats import mannwhitneyu
 
-from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, write_table
+from analysis._cli import run, sweep_parser
+from analysis.aggregate import (
+    RECORD_NAME,
+    TASK_ORDER,
+    VARIANT_ORDER,
+    load_records,
+    ok_trials,
+    ordered,
+    write_table,
+)
 
 REFERENCE_VARIANT = "full"
 
@@ -355,8 +364,6 @@ def _p(p: float) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis.report``."""
-    from analysis._cli import sweep_parser
-
     parser = sweep_parser(
         "python -m analysis.report",
         "Write a Markdown report (per task × variant statistics, full vs ablation tests).",
@@ -370,8 +377,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis.report``; returns the exit status."""
-    from analysis._cli import run
-
     args = build_parser().parse_args(argv)
 
     def action(df: pd.DataFrame) -> str:
@@ -380,7 +385,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         return f"wrote {', '.join(map(str, written))} ({len(df)} trials)"
 
-    return run(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
+    return run(
+        args.sweep_dirs,
+        action,
+        (OSError, RuntimeError, ValueError),
+        load=load_records,
+        record_name=RECORD_NAME,
+    )
 
 
 if __name__ == "__main__":
