@@ -38,7 +38,8 @@ log = logging.getLogger("contactmpc")
 
 
 def register_configs() -> None:
-    """Store the dataclass schemas of :mod:`contactmpc.config` in Hydra's ConfigStore."""
+    """Store the schemas of :mod:`contactmpc.config` (generated from the constructors' signatures) in
+    Hydra's ConfigStore, under the names the defaults lists of ``conf/`` use."""
     cs = ConfigStore.instance()
     for group, name, node in SCHEMAS:
         cs.store(group=group, name=name, node=node)
