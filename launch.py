@@ -28,8 +28,10 @@ from hydra.types import RunMode  # noqa: E402
 from hydra.utils import instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
-from contactmpc.config import SCHEMAS  # noqa: E402
+from contactmpc.config import Config, member_schemas  # noqa: E402
 from contactmpc.records import RECORD_NAME  # noqa: E402
+
+CONF_DIR = Path(__file__).resolve().parent / "conf"
 
 LABELS = ("task", "hand", "cost", "sampler", "planner", "variant", "preset", "experiment")
 FINISHED = ("ok", "diverged")
@@ -37,8 +39,26 @@ FINISHED = ("ok", "diverged")
 log = logging.getLogger("contactmpc")
 
 
+def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:
+    """``(group, member, target)`` of every member file ``conf/<group>/<member>.yaml`` whose top level
+    has a ``_target_``: the objects the config builds."""
+    members = []
+    for path in sorted(conf_dir.glob("*/*.yaml")):
+        node = OmegaConf.load(path)
+        if isinstance(node, DictConfig) and "_target_" in node:
+            members.append((path.parent.name, path.stem, node._target_))
+    return members
+
+
+# (group, name, schema) triples stored in Hydra's ConfigStore: the root schema, and one schema per
+# member, generated from the signature of what it builds (contactmpc.config.schema). A member's YAML
+# names its target and lists "<member>_schema" in its defaults, so a typo in a key fails at compose
+# time and every constructor parameter is settable; adding a member needs no other registration.
+SCHEMAS = ((None, "config_schema", Config), *member_schemas(conf_members()))
+
+
 def register_configs() -> None:
-    """Store the dataclass schemas of :mod:`contactmpc.config` in Hydra's ConfigStore."""
+    """Store :data:`SCHEMAS` in Hydra's ConfigStore (idempotent)."""
     cs = ConfigStore.instance()
     for group, name, node in SCHEMAS:
         cs.store(group=group, name=name, node=node)

@@ -26,7 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis``; returns the exit status."""
-    from analysis._cli import run
+    from analysis.aggregate import run_records
     from analysis.report import write_all
 
     args = build_parser().parse_args(argv)
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return f"wrote {', '.join(map(str, written))} ({len(df)} trials)"
 
-    return run(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
+    return run_records(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
 
 
 if __name__ == "__main__":

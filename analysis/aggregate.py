@@ -13,12 +13,15 @@ Command line::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import warnings
 from collections.abc import Iterable
 from pathlib import Path
 
 import pandas as pd
+
+from analysis._cli import run, sweep_parser
 
 RECORD_NAME = "trial.json"  # == contactmpc.records.RECORD_NAME (not imported: keeps this package light)
 SWEEP_MARKER = "multirun.yaml"  # Hydra writes it into the root of a multirun sweep
@@ -305,10 +308,20 @@ def _one_line(err: BaseException) -> str:
     return " ".join(f"{type(err).__name__}: {err}".split())
 
 
+def run_records(
+    sweep_dirs: Iterable[str],
+    action,
+    errors: tuple[type[BaseException], ...],
+    dedupe: bool = True,
+) -> int:
+    """:func:`analysis._cli.run` on the records of ``sweep_dirs`` read by :func:`load_records`: the
+    command lines' load -> act -> report step, returning the exit status."""
+    load = functools.partial(load_records, dedupe=dedupe)
+    return run(list(sweep_dirs), action, errors, load=load, record_name=RECORD_NAME)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis.aggregate``."""
-    from analysis._cli import sweep_parser
-
     parser = sweep_parser(
         "python -m analysis.aggregate",
         "Collect the trial.json records under sweep directories into one table.",
@@ -326,14 +339,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis.aggregate``; returns the exit status."""
-    from analysis._cli import run
-
     args = build_parser().parse_args(argv)
 
     def action(df: pd.DataFrame) -> str:
         return f"wrote {write_table(df, args.out)} ({len(df)} trials)"
 
-    return run(args.sweep_dirs, action, (OSError, RuntimeError), dedupe=not args.keep_duplicates)
+    return run_records(args.sweep_dirs, action, (OSError, RuntimeError), dedupe=not args.keep_duplicates)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.transforms import blended_transform_factory
 
-from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered
+from analysis._cli import sweep_parser
+from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, run_records
 
 #: Colours of the paper's variants (Fig. 3); other variants get shades of grey.
 VARIANT_COLORS: dict[str, str] = {"full": "#2ca02c", "no_contact": "#1f77b4", "joint_space": "#d62728"}
@@ -154,8 +155,6 @@ def ttf_boxplot(df: pd.DataFrame, path: str | Path | None = None, *, title: str 
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis.figures``."""
-    from analysis._cli import sweep_parser
-
     parser = sweep_parser(
         "python -m analysis.figures",
         "Draw the time-to-failure box plot (paper Fig. 3) of the trials under sweep directories.",
@@ -169,15 +168,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis.figures``; returns the exit status."""
-    from analysis._cli import run
-
     args = build_parser().parse_args(argv)
 
     def action(df: pd.DataFrame) -> str:
         ttf_boxplot(df, args.out, title=args.title)
         return f"wrote {args.out} ({len(ok_trials(df))} of {len(df)} trials counted)"
 
-    return run(args.sweep_dirs, action, (OSError, ValueError))
+    return run_records(args.sweep_dirs, action, (OSError, ValueError))
 
 
 if __name__ == "__main__":

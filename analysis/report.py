@@ -17,7 +17,8 @@ import numpy as np
 import pandas as pd
 from scipy.stats import mannwhitneyu
 
-from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, write_table
+from analysis._cli import sweep_parser
+from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, run_records, write_table
 
 REFERENCE_VARIANT = "full"
 
@@ -355,8 +356,6 @@ def _p(p: float) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m analysis.report``."""
-    from analysis._cli import sweep_parser
-
     parser = sweep_parser(
         "python -m analysis.report",
         "Write a Markdown report (per task × variant statistics, full vs ablation tests).",
@@ -370,8 +369,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m analysis.report``; returns the exit status."""
-    from analysis._cli import run
-
     args = build_parser().parse_args(argv)
 
     def action(df: pd.DataFrame) -> str:
@@ -380,7 +377,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return f"wrote {', '.join(map(str, written))} ({len(df)} trials)"
 
-    return run(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
+    return run_records(args.sweep_dirs, action, (OSError, RuntimeError, ValueError))
 
 
 if __name__ == "__main__":

@@ -1,230 +1,204 @@
-"""Config schemas: plain dataclasses mirroring the constructors that Hydra instantiates.
+"""Config schemas, generated from the signatures of the constructors that Hydra instantiates.
 
-They give the YAML files in ``conf/`` a schema, so a misspelt key or a wrong type fails when the
-config is composed, with Hydra's own error. This module does not import Hydra: ``launch.py`` stores
-these dataclasses in Hydra's ``ConfigStore`` (see :func:`launch.register_configs`).
+A schema is a dataclass with ``_target_`` (and ``_partial_: true`` where the call site completes the
+object) and one field per constructor parameter, typed and defaulted from the signature. It gives the
+YAML files in ``conf/`` a schema, so a misspelt key or a wrong type fails when the config is composed,
+with Hydra's own error; and every constructor parameter can be set from the command line. The
+defaults live in one place, the constructor: the YAML files hold only what differs from them.
+
+This module does not import Hydra or OmegaConf: ``launch.py`` stores the schemas in Hydra's
+``ConfigStore`` (see :func:`launch.register_configs`).
 """
 
 from __future__ import annotations
 
+import collections.abc
+import copy
+import dataclasses
+import functools
+import importlib
+import inspect
+import types
+import typing
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-# ----------------------------------------------------------------------------------------- hand
+MISSING = "???"
+"""OmegaConf's ``MISSING`` (a value that must be given), spelled out so this module needs no OmegaConf."""
+
+SCALARS = (bool, int, float, str)
+"""Field types kept as they are (also inside ``Optional`` and lists); any other type becomes ``Any``."""
+
+SCENE_RUNTIME_ARGS = ("hand", "task")
+"""Arguments of :class:`~contactmpc.scene.Scene` passed at the call site (``launch.build_scene``)."""
+
+JOB_RUNTIME_ARGS = ("make_scene", "output_dir", "seed", "config", "labels")
+"""Arguments of a job function passed at the call site (``launch.main``)."""
+
+_SEQUENCES = (list, tuple, collections.abc.Sequence, collections.abc.MutableSequence)
 
 
-@dataclass
-class AllegroHandConf:
-    _target_: str = "contactmpc.hands.AllegroHand"
-    kp_finger: float = 10.0
-    damping_finger: float = 1.0
-    armature_finger: float = 0.01
-    force_limit_finger: float = 0.7
-    kp_slide: float = 600.0
-    damping_slide: float = 60.0
-    kp_hinge: float = 40.0
-    damping_hinge: float = 3.0
-    slide_range: list[float] = field(default_factory=lambda: [-1.0, 1.0])
-    # Wider than +-pi so that palm-down poses (rx = pi) sit inside the wrist's range.
-    hinge_range: list[float] = field(default_factory=lambda: [-6.2832, 6.2832])
-    gravcomp: bool = True
-    name: str = "allegro_right"
+def locate(path: str) -> Any:
+    """The object named by a dotted path such as ``"contactmpc.tasks.AppleTask"``, as Hydra finds it.
+
+    Raises:
+        ImportError: no module of the path can be imported, or it lacks the named attribute.
+    """
+    parts = path.split(".")
+    obj = importlib.import_module(parts[0])
+    for i, part in enumerate(parts[1:], start=2):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            try:
+                obj = importlib.import_module(".".join(parts[:i]))
+            except ModuleNotFoundError as err:
+                raise ImportError(f"cannot locate {path!r}: {err}") from err
+    return obj
 
 
-# ---------------------------------------------------------------------------------------- tasks
+def parameters(target: Callable) -> list[tuple[inspect.Parameter, Any]]:
+    """The named parameters of a function, or of a class's constructor, each with its resolved type.
+
+    A constructor that takes ``**kwargs`` forwards them up the MRO (``MPPI(temperature, **kwargs)``
+    -> ``Planner(num_samples, ...)``): the parameters of the next ``__init__`` follow, and so on, until
+    one without ``**kwargs``. A name already seen is not repeated. ``self``, ``*args`` and ``**kwargs``
+    are left out.
+
+    Returns:
+        ``(parameter, type)`` pairs in order: the class's own parameters first, then its bases'. The
+        type is the resolved annotation (``typing.get_type_hints``), ``Any`` where there is none.
+    """
+    if inspect.isclass(target):
+        functions = []
+        for cls in target.__mro__:
+            init = cls.__dict__.get("__init__")
+            if init is None or cls is object:
+                continue
+            functions.append((init, True))
+            if not _takes_kwargs(init):
+                break
+    else:
+        functions = [(target, False)]
+    found: dict[str, tuple[inspect.Parameter, Any]] = {}
+    for function, is_method in functions:
+        hints = _type_hints(function)
+        params = list(inspect.signature(function).parameters.values())[1 if is_method else 0 :]
+        for p in params:
+            if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name in found:
+                continue
+            found[p.name] = (p, hints.get(p.name, Any))
+    return list(found.values())
 
 
-@dataclass
-class TaskConf:
-    _target_: str = "???"
-    hand_home: list[float] = field(default_factory=lambda: [0.0] * 22)
-    time_scale: float = 5.0
-    reference_path: str | None = None
-    demonstration: Any = None
+def schema(target: str | Callable, *, exclude: Iterable[str] = (), partial: bool = False) -> type:
+    """A dataclass schema for ``target``, generated from its signature (see :func:`parameters`).
+
+    Fields: ``_target_`` (the dotted path), ``_partial_ = True`` if ``partial``, then one per parameter
+    not in ``exclude``. Types: ``bool``/``int``/``float``/``str``, ``X | None`` of those, and lists,
+    tuples or sequences of one of them (as a ``list``) are kept; anything else is ``Any``. Defaults: the
+    signature's (a tuple as a list), :data:`MISSING` for a parameter without one.
+
+    Args:
+        target: the class or function, or its dotted path (kept as is in ``_target_``, so a re-export
+            such as ``contactmpc.tasks.AppleTask`` stays the name in the config).
+        exclude: parameters passed at the call site, which the config does not hold.
+        partial: the config makes a ``functools.partial`` that the call site completes.
+
+    Returns:
+        The dataclass, named after the target (``AppleTask`` -> ``AppleTaskConf``, ``run_trial`` ->
+        ``RunTrialConf``); its ``__excluded__`` attribute holds ``exclude``.
+
+    Raises:
+        TypeError: a default that a config cannot hold (an object, an array): exclude the parameter,
+            or give it a plain default.
+    """
+    path = target if isinstance(target, str) else f"{target.__module__}.{target.__qualname__}"
+    obj = locate(path) if isinstance(target, str) else target
+    exclude = tuple(exclude)
+    fields: list[tuple[str, Any, Any]] = [("_target_", str, field(default=path))]
+    if partial:
+        fields.append(("_partial_", bool, field(default=True)))
+    for p, hint in parameters(obj):
+        if p.name not in exclude:
+            fields.append((p.name, _field_type(hint), _field_default(p.default, f"{path}({p.name}=...)")))
+    name = "".join(w[:1].upper() + w[1:] for w in path.rpartition(".")[2].split("_")) + "Conf"
+    cls = dataclasses.make_dataclass(name, fields)
+    cls.__module__ = __name__
+    cls.__doc__ = f"Schema of ``{path}``, generated from its signature by :func:`contactmpc.config.schema`."
+    cls.__excluded__ = exclude
+    return cls
 
 
-@dataclass
-class AppleConf(TaskConf):
-    _target_: str = "contactmpc.tasks.AppleTask"
-    radius: float = 0.041
-    height_ratio: float = 0.9
-    mass: float = 0.2
-    position: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    friction: float = 1.0
+def _takes_kwargs(function: Callable) -> bool:
+    return any(p.kind is p.VAR_KEYWORD for p in inspect.signature(function).parameters.values())
 
 
-@dataclass
-class BottleConf(TaskConf):
-    _target_: str = "contactmpc.tasks.BottleTask"
-    radius: float = 0.0325
-    height: float = 0.20
-    mass: float = 0.45
-    position: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    friction: float = 0.9
+def _type_hints(function: Callable) -> dict[str, Any]:
+    """``typing.get_type_hints``; where one annotation cannot be resolved (a name imported only for type
+    checking), the others still are and that one is ``Any``."""
+    try:
+        return typing.get_type_hints(function)
+    except (NameError, TypeError):
+        pass
+    hints = {}
+    for name, annotation in getattr(function, "__annotations__", {}).items():
+        holder = types.SimpleNamespace(__annotations__={name: annotation})
+        try:
+            hints.update(typing.get_type_hints(holder, globalns=function.__globals__))
+        except (NameError, TypeError):
+            hints[name] = Any
+    return hints
 
 
-@dataclass
-class StaplerConf(TaskConf):
-    _target_: str = "contactmpc.tasks.StaplerTask"
-    length: float = 0.16
-    width: float = 0.04
-    base_mass: float = 0.2
-    top_mass: float = 0.15
-    open_angle: float = 0.22
-    spring_stiffness: float = 1.5
-    spring_rest: float = 0.35
-    position: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    friction: float = 0.9
+def _field_type(hint: Any) -> Any:
+    """The type of a config field for a parameter's type (see :func:`schema`)."""
+    if hint in SCALARS:
+        return hint
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        inner = [a for a in args if a is not type(None)]
+        if len(inner) == 1 and len(args) == 2 and (t := _field_type(inner[0])) is not Any:
+            return t | None
+        return Any
+    if origin in _SEQUENCES:
+        items = {a for a in args if a is not Ellipsis}
+        if len(items) == 1 and (item := items.pop()) in SCALARS:
+            return list[item]
+    return Any
 
 
-@dataclass
-class DoorknobConf(TaskConf):
-    _target_: str = "contactmpc.tasks.DoorknobTask"
-    door_width: float = 0.5
-    door_height: float = 0.8
-    door_thickness: float = 0.03
-    door_mass: float = 3.0
-    knob_height: float = 0.4
-    knob_radius: float = 0.028
-    knob_offset: float = 0.07
-    knob_stiffness: float = 0.3
-    max_knob_angle: float = 1.2
-    unlock_angle: float = 0.7
-    bolt_throw: float = 0.012
-    play: float = 0.002
-    door_damping: float = 0.5
+def _field_default(value: Any, where: str) -> Any:
+    """A dataclass field for a parameter's default (see :func:`schema`)."""
+    if value is inspect.Parameter.empty:
+        return field(default=MISSING)
+    plain = _plain(value, where)
+    if isinstance(plain, list | dict):
+        return field(default_factory=functools.partial(copy.deepcopy, plain))
+    return field(default=plain)
 
 
-# ---------------------------------------------------------------------------------------- scene
-
-
-@dataclass
-class SceneConf:
-    _target_: str = "contactmpc.scene.Scene"
-    _partial_: bool = True
-    plant_timestep: float = 0.001
-    planner_timestep: float = 0.01
-    integrator: str = "implicitfast"
-    cone: str = "elliptic"
-    impratio: float = 10.0
-
-
-# ------------------------------------------------------------- controller (filled in by issue 4)
-
-
-@dataclass
-class CostConf:
-    """Eq. 2 of the paper: lambda_o |q_o^ - q_o|^2 + lambda_c |c(q_a) - c(q_o)|^2 + lambda_v |dq_a|^2."""
-
-    _target_: str = "contactmpc.control.cost.TrackingCost"
-    lambda_o: float = 1.0
-    lambda_c: float = 1.0
-    lambda_v: float = 0.01
-    rotation_weight: float = 0.1
-    articulation_weight: float = 1.0
-
-
-@dataclass
-class SamplerConf:
-    """Where samples live: PC-curves (paper) or joint curves (ablation)."""
-
-    _target_: str = "???"
-    sigma2: float = 0.2
-    root_sigma2: float = 0.0
-    whiten: bool = False
-    num_components: int | None = None
-
-
-@dataclass
-class PlannerConf:
-    """Paper defaults: 128 samples, 2.5 s horizon, replanning every 10 ms."""
-
-    _target_: str = "???"
-    num_samples: int = 128
-    horizon: float = 2.5
-    replan_period: float = 0.01
-    nthread: int | None = None
-
-
-@dataclass
-class MPPIConf(PlannerConf):
-    temperature: float = 0.1
-
-
-@dataclass
-class CEMConf(PlannerConf):
-    num_elites: int = 8
-    min_std_ratio: float = 0.1
-    max_std_ratio: float = 1.0
-
-
-# ----------------------------------------------------------------------------------------- jobs
-
-
-@dataclass
-class TrialJobConf:
-    _target_: str = "contactmpc.jobs.trial.run_trial"
-    _partial_: bool = True
-    sampler: Any = "${sampler}"
-    cost: Any = "${cost}"
-    planner: Any = "${planner}"
-    num_control_points: int | None = None
-    duration: float | None = "${duration}"
-    progress: bool = True
-    failure_gap: float = 0.3
-    failure_min_expected: int = 6
-    reference_cache: str | None = "outputs/cache/references"
-    video: str | None = None
-    video_speed: float = 1.0
-
-
-@dataclass
-class BenchmarkJobConf:
-    _target_: str = "contactmpc.jobs.benchmark.benchmark_planner"
-    _partial_: bool = True
-    sampler: Any = "${sampler}"
-    cost: Any = "${cost}"
-    planner: Any = "${planner}"
-    threads: list[int] = field(default_factory=lambda: [1, 2])
-    repeats: int = 10
-    at_fraction: float = 0.5
-    reference_cache: str | None = "outputs/cache/references"
-
-
-@dataclass
-class WriteReferenceJobConf:
-    _target_: str = "contactmpc.jobs.write_reference.write_reference"
-    _partial_: bool = True
-    path: str | None = None
-
-
-@dataclass
-class ReferenceReportJobConf:
-    _target_: str = "contactmpc.jobs.reference_report.reference_report"
-    _partial_: bool = True
-
-
-@dataclass
-class FilmstripJobConf:
-    _target_: str = "contactmpc.jobs.filmstrip.reference_filmstrip"
-    _partial_: bool = True
-    num_frames: int = 7
-    size: list[int] = field(default_factory=lambda: [240, 320])
-    reference_cache: str | None = "outputs/cache/references"
-
-
-@dataclass
-class RenderSceneJobConf:
-    _target_: str = "contactmpc.jobs.render_scene.render_scene"
-    _partial_: bool = True
-    size: list[int] = field(default_factory=lambda: [480, 640])
+def _plain(value: Any, where: str) -> Any:
+    """``value`` as config data: scalars and ``None`` as they are, tuples as lists, recursively."""
+    if value is None or isinstance(value, SCALARS):
+        return value
+    if isinstance(value, list | tuple):
+        return [_plain(v, where) for v in value]
+    if isinstance(value, dict) and all(isinstance(k, str) for k in value):
+        return {k: _plain(v, where) for k, v in value.items()}
+    raise TypeError(f"{where}: the default {value!r} cannot be a config value")
 
 
 # ----------------------------------------------------------------------------------------- root
 
+SceneConf = schema("contactmpc.scene.Scene", exclude=SCENE_RUNTIME_ARGS, partial=True)
+
 
 @dataclass
 class Config:
+    """The root config: one node per config group, the scene, and the run's own settings."""
+
     task: Any = None
     hand: Any = None
     cost: Any = None
@@ -241,23 +215,42 @@ class Config:
     output_dir: str = "${hydra:runtime.output_dir}"
 
 
-# (group, name, schema) triples that launch.py stores in Hydra's ConfigStore.
-SCHEMAS: tuple[tuple[str | None, str, type], ...] = (
-    (None, "config_schema", Config),
-    ("hand", "allegro_schema", AllegroHandConf),
-    ("task", "apple_schema", AppleConf),
-    ("task", "bottle_schema", BottleConf),
-    ("task", "stapler_schema", StaplerConf),
-    ("task", "doorknob_schema", DoorknobConf),
-    ("cost", "cost_schema", CostConf),
-    ("sampler", "sampler_schema", SamplerConf),
-    ("planner", "planner_schema", PlannerConf),
-    ("planner", "mppi_schema", MPPIConf),
-    ("planner", "cem_schema", CEMConf),
-    ("job", "trial_schema", TrialJobConf),
-    ("job", "render_scene_schema", RenderSceneJobConf),
-    ("job", "benchmark_schema", BenchmarkJobConf),
-    ("job", "write_reference_schema", WriteReferenceJobConf),
-    ("job", "reference_report_schema", ReferenceReportJobConf),
-    ("job", "filmstrip_schema", FilmstripJobConf),
-)
+# ---------------------------------------------------------------------------------------- members
+
+_PICKLE_PREFIX = "Conf__"
+
+
+@functools.cache
+def schema_for(target: str) -> type:
+    """The schema of a config-group member that builds ``target`` (a dotted path).
+
+    A class is instantiated whole; a function is a job, built as a ``functools.partial`` that the call
+    site completes with :data:`JOB_RUNTIME_ARGS`. One class per target (cached), importable by name
+    from this module, so pickled configs (the joblib, submitit and Ray launchers pickle them) load in a
+    fresh process: its ``__qualname__`` spells the target, and the module's ``__getattr__`` rebuilds it.
+    """
+    job = not inspect.isclass(locate(target))
+    cls = schema(target, exclude=JOB_RUNTIME_ARGS if job else (), partial=job)
+    cls.__qualname__ = _PICKLE_PREFIX + target.replace(".", "__")
+    return cls
+
+
+def __getattr__(name: str) -> Any:
+    """Schema classes by their pickled names (see :func:`schema_for`)."""
+    if name.startswith(_PICKLE_PREFIX):
+        return schema_for(name[len(_PICKLE_PREFIX) :].replace("__", "."))
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def member_schemas(members: Iterable[tuple[str, str, str]]) -> tuple[tuple[str, str, type], ...]:
+    """The schemas of config-group members, from what each member builds.
+
+    Args:
+        members: ``(group, member, target)`` per member file ``conf/<group>/<member>.yaml`` that has a
+            ``_target_``.
+
+    Returns:
+        ``(group, "<member>_schema", schema)`` triples (:func:`schema_for`), the name a member's
+        defaults list uses.
+    """
+    return tuple((group, f"{member}_schema", schema_for(target)) for group, member, target in members)

@@ -185,5 +185,7 @@ def test_check_gates_names_the_failing_gate(refs) -> None:
 
 def test_task_without_design_or_file_is_refused(scene_for) -> None:
     scene = scene_for("apple", "task.demonstration=null")
-    with pytest.raises(SynthesisError, match="task 'apple' has no reference_path and no demonstration design"):
+    with pytest.raises(
+        SynthesisError, match="task 'apple' has no reference_path and no demonstration design"
+    ):
         get_reference(scene)

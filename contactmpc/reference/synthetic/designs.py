@@ -59,7 +59,9 @@ class AppleDemo(Demonstration):
         qo = scene.task.initial_object_qpos(kin.model)
         init = scene.task.hand_home.copy()
         init[:3] = qo[:3] + [0.05, 0.0, 0.053] - kin.root_offset
-        init[kin.num_root :] = _fingers([0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers(
+            [0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [1.2, 0.3, 0.5, 0.5]
+        )
         targets = (
             _T("palm", toward=(0.0, 0.0, 0.037)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial", "tip")),
@@ -103,7 +105,9 @@ class BottleDemo(Demonstration):
         qo = scene.task.initial_object_qpos(kin.model)
         init = scene.task.hand_home.copy()
         init[:3] = qo[:3] + [0.04, -0.045, -0.01] - kin.root_offset
-        init[kin.num_root :] = _fingers([0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers(
+            [0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [1.2, 0.3, 0.5, 0.5]
+        )
         targets = (
             _T("palm", toward=(0.0, -0.0325, -0.01)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial", "tip")),
@@ -156,7 +160,9 @@ class StaplerDemo(Demonstration):
         init = scene.task.hand_home.copy()
         init[:3] = qo[:3] + [0.0, -0.03, 0.065] - kin.root_offset
         init[4:6] = [scene.task.open_angle, np.pi / 2]  # palm along the open arm, fingers towards -y
-        init[kin.num_root :] = _fingers([0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers(
+            [0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [1.2, 0.3, 0.5, 0.5]
+        )
         targets = (
             _T("palm", weight=3.0, geoms=("stapler_top_col",), toward=(0.07, 0.0, 0.01)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial")),
@@ -216,7 +222,9 @@ class DoorknobDemo(Demonstration):
         knob = kin.body_pose(kin.body_id("knob")).pos
         init = scene.task.hand_home.copy()
         init[:3] = knob + [0.035, -0.032, 0.0] - kin.root_offset
-        init[kin.num_root :] = _fingers([0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [1.2, 0.3, 0.5, 0.5])
+        init[kin.num_root :] = _fingers(
+            [0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [1.2, 0.3, 0.5, 0.5]
+        )
         targets = (
             _T("palm", weight=2.0, toward=(0.0, -0.02, 0.0)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("medial", "tip")),

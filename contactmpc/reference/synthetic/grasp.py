@@ -326,7 +326,8 @@ def solve_preshape(
     wrist = kin.root_pose()
     wrists = [
         kin.wrist_qpos(
-            wrist.translated(k / max(approach_steps - 1, 1) * approach_offset), grasp.hand_qpos[: kin.num_root]
+            wrist.translated(k / max(approach_steps - 1, 1) * approach_offset),
+            grasp.hand_qpos[: kin.num_root],
         )
         for k in range(approach_steps)
     ]

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from contactmpc.reference.synthetic.grasp import GraspSchedule
 from contactmpc.reference.synthetic.kinematics import Kinematics, Pose
