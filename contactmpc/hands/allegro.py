@@ -180,18 +180,6 @@ class AllegroHand(FloatingHand):
         )
 
     # ------------------------------------------------------------------ names and limits
-    @property
-    def finger_joints(self) -> tuple[str, ...]:
-        return self.FINGER_JOINTS
-
-    @property
-    def link_names(self) -> tuple[str, ...]:
-        return self.LINKS
-
-    @property
-    def flexion_joints(self) -> tuple[str, ...]:
-        return self.FLEXION
-
     def finger_range(self, joint: str) -> tuple[float, float]:
         return _FINGER_RANGES[joint]
 

@@ -134,6 +134,11 @@ class FloatingHand(Hand):
 
     root_body = "hand_root"
     WRIST_JOINTS: tuple[str, ...] = ("wrist_x", "wrist_y", "wrist_z", "wrist_rx", "wrist_ry", "wrist_rz")
+    # A subclass names its finger joints, its contact links (palm first) and the finger joints that
+    # close the hand (a synthesised pre-shape opens them).
+    FINGER_JOINTS: tuple[str, ...] = ()
+    LINKS: tuple[str, ...] = ()
+    FLEXION: tuple[str, ...] = ()
 
     def __init__(
         self,
@@ -163,6 +168,18 @@ class FloatingHand(Hand):
     @property
     def root_joints(self) -> tuple[str, ...]:
         return self.WRIST_JOINTS
+
+    @property
+    def finger_joints(self) -> tuple[str, ...]:
+        return self.FINGER_JOINTS
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        return self.LINKS
+
+    @property
+    def flexion_joints(self) -> tuple[str, ...]:
+        return self.FLEXION
 
     @property
     def joint_ranges(self) -> np.ndarray:

@@ -33,6 +33,7 @@ class ParallelGripper(FloatingHand):
 
     FINGER_JOINTS: tuple[str, ...] = ("left_slide", "right_slide")
     LINKS: tuple[str, ...] = ("palm", "left_finger", "right_finger")
+    FLEXION: tuple[str, ...] = FINGER_JOINTS
 
     def __init__(
         self,
@@ -54,18 +55,6 @@ class ParallelGripper(FloatingHand):
         self.kp_finger = float(kp_finger)
         self.damping_finger = float(damping_finger)
         self.force_limit_finger = float(force_limit_finger)
-
-    @property
-    def finger_joints(self) -> tuple[str, ...]:
-        return self.FINGER_JOINTS
-
-    @property
-    def link_names(self) -> tuple[str, ...]:
-        return self.LINKS
-
-    @property
-    def flexion_joints(self) -> tuple[str, ...]:
-        return self.FINGER_JOINTS
 
     def finger_range(self, joint: str) -> tuple[float, float]:
         return (0.0, self.stroke)

@@ -42,8 +42,32 @@ def _free_pose(qo: np.ndarray, offset=(0.0, 0.0, 0.0), rotation: Rotation | None
     return tuple(float(v) for v in out)
 
 
-def _fingers(ff, mf, rf, th) -> np.ndarray:
-    return np.concatenate([ff, mf, rf, th]).astype(float)
+def _initial(scene: Scene, kin: Kinematics, position, offset, curl, thumb=(1.2, 0.3, 0.5, 0.5)) -> np.ndarray:
+    """Initial guess of a grasp: the task's home wrist orientation, the wrist root at ``position +
+    offset`` (world), the three long fingers curled alike (joints 0-3 = ``curl``) and the thumb."""
+    init = scene.task.hand_home.copy()
+    init[:3] = position + np.asarray(offset, float) - kin.root_offset
+    init[kin.num_root :] = np.concatenate([curl, curl, curl, thumb]).astype(float)
+    return init
+
+
+def _power_grasp(body: str, qo: np.ndarray, init: np.ndarray, palm_toward: tuple) -> GraspProblem:
+    """Palm, proximal, medial and tip links of the long fingers and medial, distal and tip of the thumb
+    onto ``body``; the palm drawn to ``palm_toward`` (in the body's frame)."""
+    targets = (
+        _T("palm", toward=palm_toward),
+        *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial", "tip")),
+        *(_T(f"th_{p}") for p in ("medial", "distal", "tip")),
+    )
+    return GraspProblem(
+        body=body,
+        object_qpos=qo,
+        initial=init,
+        targets=targets,
+        natural_weight=0.1,
+        wrist_weight=3.0,
+        clearance=0.004,
+    )
 
 
 class AppleDemo(Demonstration):
@@ -57,25 +81,8 @@ class AppleDemo(Demonstration):
 
     def grasp_problem(self, scene: Scene, kin: Kinematics) -> GraspProblem:
         qo = scene.task.initial_object_qpos(kin.model)
-        init = scene.task.hand_home.copy()
-        init[:3] = qo[:3] + [0.05, 0.0, 0.053] - kin.root_offset
-        init[kin.num_root :] = _fingers(
-            [0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [0, 1.0, 0.6, 0.3], [1.2, 0.3, 0.5, 0.5]
-        )
-        targets = (
-            _T("palm", toward=(0.0, 0.0, 0.037)),
-            *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial", "tip")),
-            *(_T(f"th_{p}") for p in ("medial", "distal", "tip")),
-        )
-        return GraspProblem(
-            body="apple",
-            object_qpos=qo,
-            initial=init,
-            targets=targets,
-            natural_weight=0.1,
-            wrist_weight=3.0,
-            clearance=0.004,
-        )
+        init = _initial(scene, kin, qo[:3], [0.05, 0.0, 0.053], [0, 1.0, 0.6, 0.3])
+        return _power_grasp("apple", qo, init, palm_toward=(0.0, 0.0, 0.037))
 
     def phases(self, scene: Scene) -> list[Phase]:
         qo = scene.task.initial_object_qpos(scene.plant_model)
@@ -103,25 +110,8 @@ class BottleDemo(Demonstration):
 
     def grasp_problem(self, scene: Scene, kin: Kinematics) -> GraspProblem:
         qo = scene.task.initial_object_qpos(kin.model)
-        init = scene.task.hand_home.copy()
-        init[:3] = qo[:3] + [0.04, -0.045, -0.01] - kin.root_offset
-        init[kin.num_root :] = _fingers(
-            [0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [0, 1.3, 1.0, 0.3], [1.2, 0.3, 0.5, 0.5]
-        )
-        targets = (
-            _T("palm", toward=(0.0, -0.0325, -0.01)),
-            *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial", "tip")),
-            *(_T(f"th_{p}") for p in ("medial", "distal", "tip")),
-        )
-        return GraspProblem(
-            body="bottle",
-            object_qpos=qo,
-            initial=init,
-            targets=targets,
-            natural_weight=0.1,
-            wrist_weight=3.0,
-            clearance=0.004,
-        )
+        init = _initial(scene, kin, qo[:3], [0.04, -0.045, -0.01], [0, 1.3, 1.0, 0.3])
+        return _power_grasp("bottle", qo, init, palm_toward=(0.0, -0.0325, -0.01))
 
     def phases(self, scene: Scene) -> list[Phase]:
         qo = scene.task.initial_object_qpos(scene.plant_model)
@@ -157,12 +147,8 @@ class StaplerDemo(Demonstration):
 
     def grasp_problem(self, scene: Scene, kin: Kinematics) -> GraspProblem:
         qo = scene.task.initial_object_qpos(kin.model)
-        init = scene.task.hand_home.copy()
-        init[:3] = qo[:3] + [0.0, -0.03, 0.065] - kin.root_offset
-        init[4:6] = [scene.task.open_angle, np.pi / 2]  # palm along the open arm, fingers towards -y
-        init[kin.num_root :] = _fingers(
-            [0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [0, 1.3, 0.3, 0.1], [1.2, 0.3, 0.5, 0.5]
-        )
+        init = _initial(scene, kin, qo[:3], [0.0, -0.03, 0.065], [0, 1.3, 0.3, 0.1])
+        init[4:6] = [scene.task.open_angle, np.pi / 2]  # wrist ry, rz: palm along the open arm, fingers to -y
         targets = (
             _T("palm", weight=3.0, geoms=("stapler_top_col",), toward=(0.07, 0.0, 0.01)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("proximal", "medial")),
@@ -220,11 +206,7 @@ class DoorknobDemo(Demonstration):
         qo = scene.task.initial_object_qpos(kin.model)
         kin.set(scene.task.hand_home, qo)
         knob = kin.body_pose(kin.body_id("knob")).pos
-        init = scene.task.hand_home.copy()
-        init[:3] = knob + [0.035, -0.032, 0.0] - kin.root_offset
-        init[kin.num_root :] = _fingers(
-            [0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [0, 1.5, 1.2, 0.5], [1.2, 0.3, 0.5, 0.5]
-        )
+        init = _initial(scene, kin, knob, [0.035, -0.032, 0.0], [0, 1.5, 1.2, 0.5])
         targets = (
             _T("palm", weight=2.0, toward=(0.0, -0.02, 0.0)),
             *(_T(f"{f}_{p}") for f in ("ff", "mf", "rf") for p in ("medial", "tip")),
