@@ -28,7 +28,7 @@ from hydra.types import RunMode  # noqa: E402
 from hydra.utils import instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
-from contactmpc.config import Config, member_schemas  # noqa: E402
+from contactmpc.config import Config, check_config, member_schemas  # noqa: E402
 from contactmpc.records import RECORD_NAME  # noqa: E402
 
 CONF_DIR = Path(__file__).resolve().parent / "conf"
@@ -97,6 +97,7 @@ def main(cfg: DictConfig) -> object:
         return str(output_dir / RECORD_NAME)
     labels = {g: hc.runtime.choices.get(g) for g in LABELS}
     try:
+        check_config(OmegaConf.to_container(cfg, resolve=True))  # nonsense values fail before any work
         job = instantiate(cfg.job)
         result = job(
             make_scene=functools.partial(build_scene, cfg),

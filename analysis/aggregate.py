@@ -2,8 +2,18 @@
 
 Each trial writes one flat ``trial.json`` (see :mod:`contactmpc.records` and :mod:`contactmpc.jobs`);
 a Hydra multirun writes each job to its own subdirectory of the sweep directory. This module globs
-them, keeps the flat fields as columns (the nested ``config`` is reduced to a few planner settings),
-derives the paper's variant names and drops duplicate trials.
+them, keeps the flat fields as columns, derives the paper's variant names, and tells trials apart by
+their config.
+
+**A trial's identity** is its resolved config (the record's ``config``) without the keys in
+:data:`VOLATILE_CONFIG_KEYS` (where it wrote, how fast it ran, what it showed) and the trial job's
+copies of root nodes (:data:`COPIED_CONFIG_KEYS`), together with the config choices (task, hand,
+cost, sampler, planner). Two records of the same identity are the same trial run twice: the newest is
+kept and a :class:`RecordWarning` names both. Records that differ in any other config value (a
+``duration``, a cost weight, a planner size) are different trials: all are kept, and the values that
+differ between trials of the same task and variant (other than the seed) become columns of their own
+and the ``condition`` label (``"duration=2.0, cost.lambda_v=0.001"``; empty when there is one
+condition), by which the tables, figures and tests group next to task and variant.
 
 Command line::
 
@@ -14,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import hashlib
 import json
 import warnings
 from collections.abc import Iterable
@@ -40,6 +51,25 @@ TASK_ORDER: tuple[str, ...] = ("doorknob", "apple", "bottle", "stapler")
 
 #: Planner settings copied from ``config.planner`` into columns of the same name.
 CONFIG_COLUMNS: tuple[str, ...] = ("num_samples", "horizon", "replan_period")
+#: Config keys (and everything under them) that are not part of a trial's identity: paths and
+#: settings that change where a trial writes, how fast it runs or what it shows, never its result.
+#: (Paths that name an input, such as ``task.reference_path``, stay part of it.)
+VOLATILE_CONFIG_KEYS: tuple[str, ...] = (
+    "output_dir",  # the run directory (Hydra's runtime.output_dir)
+    "hydra",  # Hydra's own settings, should a record hold them
+    "resume",  # whether a finished record is skipped
+    "planner.nthread",  # rollout threads: the same rollouts, faster
+    "job.progress",  # the progress bar
+    "job.video",  # a video rendered after the trial ...
+    "job.video_speed",  # ... and its playback speed
+    "job.reference_cache",  # where synthesised references are cached (the same reference either way)
+)
+#: Nodes the trial job copies from the root by interpolation (``conf/job/trial.yaml``): they vary with
+#: their originals, so they are left out of the identity and of the condition columns.
+COPIED_CONFIG_KEYS: tuple[str, ...] = ("job.sampler", "job.cost", "job.planner", "job.duration")
+#: Config choices that are part of a trial's identity besides its config (records name them; a
+#: record's config is enough to tell them apart, these make sure of it).
+IDENTITY_LABELS: tuple[str, ...] = ("task", "hand", "cost", "sampler", "planner")
 #: Record fields that are not scalars and stay out of the table.
 DROPPED_FIELDS: tuple[str, ...] = ("config", "versions", "traceback")
 #: Columns of the table, in this order, with the type each is coerced to (``None``: left as read);
@@ -47,6 +77,7 @@ DROPPED_FIELDS: tuple[str, ...] = ("config", "versions", "traceback")
 COLUMN_TYPES: dict[str, str | None] = {
     "task": None,
     "variant": None,
+    "condition": None,
     "hand": None,
     "cost": None,
     "sampler": None,
@@ -82,15 +113,15 @@ COLUMN_TYPES: dict[str, str | None] = {
     "replan_period": "float",
     "schema": "Int64",
     "git_revision": None,
+    "trial_id": None,
     "sweep_dir": None,
     "record_path": None,
     "record_mtime": "datetime",
 }
 COLUMNS: tuple[str, ...] = tuple(COLUMN_TYPES)
-#: Columns that identify one trial within a sweep; the newest record of each such group is kept.
-#: Beyond (task, variant, planner, seed, sweep_dir), hand, preset and the planner settings are part of
-#: the key so that a sweep over, e.g., ``planner.num_samples`` keeps every setting.
-DEDUPE_KEY: tuple[str, ...] = (
+#: The identity of a record without a ``config`` (an older record): these columns, as before configs
+#: were recorded.
+FALLBACK_KEY: tuple[str, ...] = (
     "task",
     "variant",
     "planner",
@@ -100,10 +131,11 @@ DEDUPE_KEY: tuple[str, ...] = (
     "preset",
     *CONFIG_COLUMNS,
 )
+_CONFIG = "_config"  # private column: a record's identity config, flattened (dropped after loading)
 
 
 class RecordWarning(UserWarning):
-    """A record that could not be read (or lacks required fields) and was skipped."""
+    """A record that was skipped: unreadable, lacking required fields, or a second run of a trial."""
 
 
 def variant_name(planner: str | None, cost: str | None, sampler: str | None) -> str:
@@ -157,7 +189,8 @@ def sweep_root(record: Path, root: Path) -> Path:
 
 
 def read_record(path: str | Path) -> dict:
-    """One record as a flat row: scalar fields, the planner settings of ``config``, no nested values.
+    """One record as a flat row: scalar fields, the planner settings of ``config``, no nested values;
+    and ``trial_id``, a digest of the trial's identity (see the module's docstring).
 
     Raises:
         OSError: the file cannot be read.
@@ -175,7 +208,39 @@ def read_record(path: str | Path) -> dict:
         for key in CONFIG_COLUMNS:
             if key in planner_cfg and not isinstance(planner_cfg[key], dict | list):
                 row[key] = planner_cfg[key]
+    if isinstance(config, dict):
+        row[_CONFIG] = identity_config(config)
+        labels = {k: data.get(k) for k in IDENTITY_LABELS}
+        text = json.dumps([labels, sorted(row[_CONFIG].items())], sort_keys=True, default=str)
+        row["trial_id"] = hashlib.sha1(text.encode()).hexdigest()[:12]
     return row
+
+
+def identity_config(config: dict) -> dict[str, object]:
+    """The part of a record's ``config`` that makes the trial what it is, flattened to dotted keys.
+
+    Keys under :data:`VOLATILE_CONFIG_KEYS` and :data:`COPIED_CONFIG_KEYS` are left out; a list is one
+    value (as a tuple, so it can be compared and hashed).
+    """
+    skip = VOLATILE_CONFIG_KEYS + COPIED_CONFIG_KEYS
+    out: dict[str, object] = {}
+
+    def walk(node: dict, prefix: str) -> None:
+        for k, v in node.items():
+            key = f"{prefix}{k}"
+            if key in skip:
+                continue
+            if isinstance(v, dict):
+                walk(v, key + ".")
+            else:
+                out[key] = _hashable(v)
+
+    walk(config, "")
+    return out
+
+
+def _hashable(v):
+    return tuple(_hashable(x) for x in v) if isinstance(v, list | tuple) else v
 
 
 def load_records(*dirs: str | Path, dedupe: bool = True) -> pd.DataFrame:
@@ -183,18 +248,20 @@ def load_records(*dirs: str | Path, dedupe: bool = True) -> pd.DataFrame:
 
     Unreadable records are skipped with a :class:`RecordWarning` naming the file. Columns are the
     record's flat fields (:data:`COLUMNS` first), ``num_samples``/``horizon``/``replan_period`` from
-    ``config.planner`` when present, the derived ``variant``, ``sweep_dir`` (the Hydra sweep root, see
-    :func:`sweep_root`), ``record_path`` and ``record_mtime``. A file reached through two overlapping
-    directories is counted once; with ``dedupe``, of the records that share :data:`DEDUPE_KEY` only the
-    newest (by file modification time) is kept.
+    ``config.planner`` when present, the derived ``variant``, ``condition`` and one column per config
+    value that tells trials of the same task and variant apart (:func:`add_conditions`), ``trial_id``,
+    ``sweep_dir`` (the Hydra sweep root, see :func:`sweep_root`), ``record_path`` and
+    ``record_mtime``. A file reached through two overlapping directories is counted once; with
+    ``dedupe``, of the records of one trial (:func:`drop_duplicates`) only the newest (by file
+    modification time) is kept, with a :class:`RecordWarning`.
 
     Args:
         *dirs: sweep directories (or any directories above them).
-        dedupe: drop duplicate trials, keeping the newest.
+        dedupe: drop second runs of a trial, keeping the newest.
 
     Returns:
-        One row per trial, sorted by task (paper order), variant, seed; empty (with :data:`COLUMNS`)
-        when no record was found.
+        One row per record kept, sorted by task (paper order), variant, condition, seed; empty (with
+        :data:`COLUMNS`) when no record was found.
 
     Raises:
         FileNotFoundError: a directory does not exist.
@@ -223,25 +290,95 @@ def load_records(*dirs: str | Path, dedupe: bool = True) -> pd.DataFrame:
     for col in COLUMNS:
         if col not in df:
             df[col] = pd.Series(dtype=object)
+    if _CONFIG not in df:
+        df[_CONFIG] = pd.Series([None] * len(df), dtype=object)
     if len(df):
         df["variant"] = [variant_name(*x) for x in zip(df["planner"], df["cost"], df["sampler"], strict=True)]
     df = df[list(COLUMNS) + [c for c in df.columns if c not in COLUMNS]]
     df = _coerce(df)
     if dedupe and len(df):
         df = drop_duplicates(df)
+    df = add_conditions(df)
     return sort_table(df)
 
 
+def _identity(df: pd.DataFrame) -> pd.Series:
+    """A trial's identity per row: its ``trial_id``, or for a record without a config its
+    :data:`FALLBACK_KEY` values (missing values compare equal)."""
+    key = [c for c in FALLBACK_KEY if c in df]
+    fallback = df[key].astype(object).where(df[key].notna(), "<NA>").astype(str).agg("|".join, axis=1)
+    has_id = df["trial_id"].notna()
+    return ("id:" + df["trial_id"].astype(str)).where(has_id, "key:" + fallback)
+
+
 def drop_duplicates(df: pd.DataFrame) -> pd.DataFrame:
-    """Of the rows that share :data:`DEDUPE_KEY` (missing values compare equal), keep the newest."""
-    key = [c for c in DEDUPE_KEY if c in df]
+    """Of the rows of one trial (the same identity, see the module's docstring), keep the newest.
+
+    Warns:
+        RecordWarning: once per trial found more than once, naming the record kept and those dropped.
+    """
     newest_first = df.sort_values(["record_mtime", "record_path"], ascending=[False, True], kind="stable")
-    filled = newest_first[key].astype(object).where(newest_first[key].notna(), "<NA>").astype(str)
-    return newest_first[~filled.duplicated(keep="first")]
+    identity = _identity(newest_first)
+    repeated = identity.duplicated(keep="first")
+    for ident in dict.fromkeys(identity[repeated]):
+        paths = newest_first.loc[identity == ident, "record_path"].tolist()
+        warnings.warn(
+            f"the same trial (same config and seed) is recorded {len(paths)} times: keeping the newest, "
+            f"{paths[0]}; dropping {', '.join(paths[1:])}",
+            RecordWarning,
+            2,
+        )
+    return newest_first[~repeated]
+
+
+def add_conditions(df: pd.DataFrame) -> pd.DataFrame:
+    """Tell apart the trials of one task and variant that ran under different config values.
+
+    Within each (task, variant), the identity-config keys (see :func:`identity_config`) whose value is
+    not the same in every row, the seed aside, are that group's condition keys. Each becomes a column
+    named by its dotted key (``duration``, ``cost.lambda_v``; ``config.<key>`` where that name is
+    already a column), filled for every row; each row's ``condition`` is ``"key=value, ..."`` over
+    its group's keys, sorted, and empty where the group has a single condition.
+
+    Returns:
+        The table with ``condition`` filled and the condition columns added after :data:`COLUMNS`;
+        the private flattened-config column is dropped.
+    """
+    df = df.copy()
+    configs = df[_CONFIG] if _CONFIG in df else pd.Series([None] * len(df), index=df.index, dtype=object)
+    labels = pd.Series("", index=df.index, dtype=object)
+    varying: dict[str, None] = {}
+    for _, group in df.groupby(["task", "variant"], dropna=False, sort=False):
+        rows = [c if isinstance(c, dict) else {} for c in configs[group.index]]
+        keys = sorted(
+            k
+            for k in set().union(*rows)
+            if k != "seed" and len({json.dumps(r.get(k, "<absent>"), default=str) for r in rows}) > 1
+        )
+        varying.update(dict.fromkeys(keys))
+        for i, row in zip(group.index, rows, strict=True):
+            labels[i] = ", ".join(f"{k}={_show(row[k]) if k in row else '?'}" for k in keys)
+    df["condition"] = labels
+    added = []
+    for key in sorted(varying):
+        column = key if key not in df else f"config.{key}"
+        df[column] = [_cell(c.get(key)) if isinstance(c, dict) else None for c in configs]
+        added.append(column)
+    df = df.drop(columns=[_CONFIG], errors="ignore")
+    return df[list(COLUMNS) + added + [c for c in df.columns if c not in COLUMNS and c not in added]]
+
+
+def _show(value) -> str:
+    """A config value as it is written on Hydra's command line (``null``, ``true``, ``[0, 0.1]``)."""
+    return value if isinstance(value, str) else json.dumps(_cell(value))
+
+
+def _cell(value):
+    return list(value) if isinstance(value, tuple) else value
 
 
 def sort_table(df: pd.DataFrame) -> pd.DataFrame:
-    """Rows sorted by task (paper order), variant (paper order), seed, sweep; a fresh index."""
+    """Rows sorted by task (paper order), variant (paper order), condition, seed, sweep; a fresh index."""
     if not len(df):
         return df.reset_index(drop=True)
     tasks = {t: i for i, t in enumerate(ordered(df["task"], TASK_ORDER))}
@@ -250,14 +387,33 @@ def sort_table(df: pd.DataFrame) -> pd.DataFrame:
         {
             "t": df["task"].map(tasks),
             "v": df["variant"].map(variants),
+            "c": df["condition"].fillna("").astype(str),
             "s": pd.to_numeric(df["seed"], errors="coerce"),
             "d": df["sweep_dir"].astype(str),
             "p": df["record_path"].astype(str),
         },
         index=df.index,
     )
-    order = keys.sort_values(["t", "v", "s", "d", "p"], kind="stable").index
+    order = keys.sort_values(["t", "v", "c", "s", "d", "p"], kind="stable").index
     return df.loc[order].reset_index(drop=True)
+
+
+def conditions(df: pd.DataFrame, task: str, variant: str) -> list[str]:
+    """The conditions of ``task`` and ``variant`` in the table, sorted: ``[""]`` for a variant run
+    under one condition, ``[]`` for one not in the table."""
+    sel = df.loc[(df["task"] == task) & (df["variant"] == variant), "condition"]
+    return sorted(set(sel.fillna("").astype(str)))
+
+
+def groups(df: pd.DataFrame) -> list[tuple[str, str, str]]:
+    """The ``(task, variant, condition)`` groups of the table: tasks and variants in paper order,
+    conditions sorted. Tables, figures and tests count trials per group."""
+    return [
+        (task, variant, condition)
+        for task in ordered(df["task"], TASK_ORDER)
+        for variant in ordered(df["variant"], VARIANT_ORDER)
+        for condition in conditions(df, task, variant)
+    ]
 
 
 def ok_trials(df: pd.DataFrame) -> pd.DataFrame:

@@ -23,10 +23,12 @@ from matplotlib.patches import Patch
 from matplotlib.transforms import blended_transform_factory
 
 from analysis._cli import sweep_parser
-from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, run_records
+from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, conditions, groups, ok_trials, ordered, run_records
 
 #: Colours of the paper's variants (Fig. 3); other variants get shades of grey.
 VARIANT_COLORS: dict[str, str] = {"full": "#2ca02c", "no_contact": "#1f77b4", "joint_space": "#d62728"}
+#: Hatches that tell the conditions of one variant apart (see :func:`analysis.aggregate.add_conditions`).
+CONDITION_HATCHES: tuple[str, ...] = ("", "//", "..", "xx", "\\\\", "++", "oo", "--")
 #: Legend labels of the paper's variants.
 VARIANT_LABELS: dict[str, str] = {
     "full": "full (contact cost + PC splines)",
@@ -44,22 +46,29 @@ def variant_colors(variants: list[str]) -> dict[str, str]:
     return colors
 
 
+def _in(df: pd.DataFrame, task: str, variant: str, condition: str) -> pd.Series:
+    return (df["task"] == task) & (df["variant"] == variant) & (df["condition"].fillna("") == condition)
+
+
+def series_label(variant: str, condition: str) -> str:
+    """The legend label of a variant under a condition."""
+    label = VARIANT_LABELS.get(variant, variant)
+    return f"{label} [{condition}]" if condition else label
+
+
 def excluded_note(df: pd.DataFrame) -> str:
-    """One line naming the trials that do not count for TTF (status not ``ok``), counted per task/variant."""
+    """One line naming the trials that do not count for TTF (status not ``ok``), counted per
+    task/variant (and condition)."""
     bad = df[df["status"] != "ok"]
     missing = df[(df["status"] == "ok") & df["ttf"].isna()]
     if not len(bad) and not len(missing):
         return f"All {len(df)} trials have status ok."
     parts = []
-    tasks = ordered(df["task"], TASK_ORDER)
-    variants = ordered(df["variant"], VARIANT_ORDER)
-    for task in tasks:
-        for variant in variants:
-            sel = bad[(bad["task"] == task) & (bad["variant"] == variant)]
-            counts = sel["status"].fillna("no status").value_counts()
-            if len(counts):
-                what = ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
-                parts.append(f"{task}/{variant}: {what}")
+    for task, variant, condition in groups(df):
+        counts = bad.loc[_in(bad, task, variant, condition), "status"].fillna("no status").value_counts()
+        if len(counts):
+            what = ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
+            parts.append(f"{task}/{variant}{f' [{condition}]' if condition else ''}: {what}")
     if len(missing):
         parts.append(f"{len(missing)} ok without TTF")
     return f"Not counted for TTF ({len(bad) + len(missing)} of {len(df)} trials): " + "; ".join(parts)
@@ -70,8 +79,9 @@ def ttf_boxplot(df: pd.DataFrame, path: str | Path | None = None, *, title: str 
 
     One grouped axis: tasks left to right in the paper's order (doorknob, apple, bottle, stapler, then
     any other), one box per variant within a task (full green, no_contact blue, joint_space red, other
-    variants grey), every trial as a jittered point on its box, ``n`` above each box. Only trials with
-    status ``ok`` count; the others are counted in a note under the axis.
+    variants grey) and per condition of a variant run under several (one hatch each, named in the
+    legend), every trial as a jittered point on its box, ``n`` above each box. Only trials with status
+    ``ok`` count; the others are counted in a note under the axis.
 
     Args:
         df: the table of :func:`analysis.aggregate.load_records`.
@@ -84,8 +94,14 @@ def ttf_boxplot(df: pd.DataFrame, path: str | Path | None = None, *, title: str 
     tasks = ordered(df["task"], TASK_ORDER)
     variants = ordered(df["variant"], VARIANT_ORDER)
     colors = variant_colors(variants)
+    # One slot per (variant, condition) found in any task; a condition's hatch is its rank in its variant.
+    series = sorted({(v, c) for _, v, c in groups(df)}, key=lambda s: (variants.index(s[0]), s[1]))
+    hatches = {}
+    for variant, condition in series:
+        rank = sum(v == variant for v, _ in hatches)
+        hatches[(variant, condition)] = CONDITION_HATCHES[rank % len(CONDITION_HATCHES)]
     good = ok_trials(df)
-    nv = max(len(variants), 1)
+    nv = max(len(series), 1)
     slot = 0.8 / nv
     rng = np.random.default_rng(0)  # deterministic jitter
 
@@ -94,13 +110,11 @@ def ttf_boxplot(df: pd.DataFrame, path: str | Path | None = None, *, title: str 
     ax = fig.add_subplot()
     top = blended_transform_factory(ax.transData, ax.transAxes)
     for i, task in enumerate(tasks):
-        for j, variant in enumerate(variants):
+        for j, (variant, condition) in enumerate(series):
             x = i + (j - (nv - 1) / 2) * slot
-            if not (df["task"].eq(task) & df["variant"].eq(variant)).any():
-                continue  # no trial of this variant on this task: leave the slot empty
-            ttf = 100.0 * good.loc[(good["task"] == task) & (good["variant"] == variant), "ttf"].to_numpy(
-                float
-            )
+            if condition not in conditions(df, task, variant):
+                continue  # no trial of this variant and condition on this task: leave the slot empty
+            ttf = 100.0 * good.loc[_in(good, task, variant, condition), "ttf"].to_numpy(float)
             ax.text(x, 1.01, f"n={len(ttf)}", transform=top, ha="center", va="bottom", fontsize=7)
             if not len(ttf):
                 continue
@@ -114,7 +128,12 @@ def ttf_boxplot(df: pd.DataFrame, path: str | Path | None = None, *, title: str 
                 medianprops={"color": "black", "linewidth": 1.5},
             )
             for patch in box["boxes"]:
-                patch.set(facecolor=colors[variant], alpha=0.45, edgecolor=colors[variant])
+                patch.set(
+                    facecolor=colors[variant],
+                    alpha=0.45,
+                    edgecolor=colors[variant],
+                    hatch=hatches[(variant, condition)],
+                )
             for line in box["whiskers"] + box["caps"]:
                 line.set_color(colors[variant])
             jitter = rng.uniform(-0.28 * slot, 0.28 * slot, len(ttf))
@@ -136,8 +155,14 @@ def ttf_boxplot(df: pd.DataFrame, path: str | Path | None = None, *, title: str 
     ax.grid(axis="y", alpha=0.3)
     ax.legend(
         handles=[
-            Patch(facecolor=colors[v], edgecolor=colors[v], alpha=0.6, label=VARIANT_LABELS.get(v, v))
-            for v in variants
+            Patch(
+                facecolor=colors[v],
+                edgecolor=colors[v],
+                alpha=0.6,
+                hatch=hatches[(v, c)],
+                label=textwrap.fill(series_label(v, c), 60),
+            )
+            for v, c in series
         ],
         loc="upper left",
         bbox_to_anchor=(1.01, 1.0),

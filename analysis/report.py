@@ -18,13 +18,27 @@ import pandas as pd
 from scipy.stats import mannwhitneyu
 
 from analysis._cli import sweep_parser
-from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, run_records, write_table
+from analysis.aggregate import (
+    TASK_ORDER,
+    VARIANT_ORDER,
+    conditions,
+    groups,
+    ok_trials,
+    ordered,
+    run_records,
+    write_table,
+)
 
 REFERENCE_VARIANT = "full"
 
 
+def _in(df: pd.DataFrame, task: str, variant: str, condition: str) -> pd.Series:
+    """Rows of one task, variant and condition."""
+    return (df["task"] == task) & (df["variant"] == variant) & (df["condition"].fillna("") == condition)
+
+
 def summary_table(df: pd.DataFrame) -> pd.DataFrame:
-    """Statistics per task and variant.
+    """Statistics per task, variant and condition.
 
     TTF, completion and tracking error are over the trials with status ``ok`` (and a TTF) only.
 
@@ -32,42 +46,43 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
         df: the table of :func:`analysis.aggregate.load_records`.
 
     Returns:
-        One row per (task, variant) in paper order, columns ``task``, ``variant``, ``trials`` (all
-        records), ``n`` (status ok), ``errors`` (status not ok), ``completion_rate`` (mean of
-        ``completed`` where recorded, NaN if never), ``ttf_median``, ``ttf_q25``, ``ttf_q75`` (fractions
-        of the contact span) and ``object_position_error_mean`` (m, mean over trials of the per-trial mean).
+        One row per (task, variant, condition) in paper order, columns ``task``, ``variant``,
+        ``condition`` (the config values that set it apart, empty for a variant run under one
+        condition), ``trials`` (all records), ``n`` (status ok), ``errors`` (status not ok),
+        ``completion_rate`` (mean of ``completed`` where recorded, NaN if never), ``ttf_median``,
+        ``ttf_q25``, ``ttf_q75`` (fractions of the contact span) and ``object_position_error_mean`` (m,
+        mean over trials of the per-trial mean).
     """
     good = ok_trials(df)
     rows = []
-    for task in ordered(df["task"], TASK_ORDER):
-        for variant in ordered(df["variant"], VARIANT_ORDER):
-            sel = (df["task"] == task) & (df["variant"] == variant)
-            if not sel.any():
-                continue
-            g = good[(good["task"] == task) & (good["variant"] == variant)]
-            ttf = g["ttf"].to_numpy(float)
-            completed = g["completed"].dropna()
-            rows.append(
-                {
-                    "task": task,
-                    "variant": variant,
-                    "trials": int(sel.sum()),
-                    "n": len(g),
-                    "errors": int((df.loc[sel, "status"] != "ok").sum()),
-                    "completion_rate": float(completed.astype(float).mean()) if len(completed) else math.nan,
-                    "ttf_median": float(np.median(ttf)) if len(ttf) else math.nan,
-                    "ttf_q25": float(np.percentile(ttf, 25)) if len(ttf) else math.nan,
-                    "ttf_q75": float(np.percentile(ttf, 75)) if len(ttf) else math.nan,
-                    "object_position_error_mean": float(g["object_position_error_mean"].mean())
-                    if g["object_position_error_mean"].notna().any()
-                    else math.nan,
-                }
-            )
+    for task, variant, condition in groups(df):
+        sel = _in(df, task, variant, condition)
+        g = good[_in(good, task, variant, condition)]
+        ttf = g["ttf"].to_numpy(float)
+        completed = g["completed"].dropna()
+        rows.append(
+            {
+                "task": task,
+                "variant": variant,
+                "condition": condition,
+                "trials": int(sel.sum()),
+                "n": len(g),
+                "errors": int((df.loc[sel, "status"] != "ok").sum()),
+                "completion_rate": float(completed.astype(float).mean()) if len(completed) else math.nan,
+                "ttf_median": float(np.median(ttf)) if len(ttf) else math.nan,
+                "ttf_q25": float(np.percentile(ttf, 25)) if len(ttf) else math.nan,
+                "ttf_q75": float(np.percentile(ttf, 75)) if len(ttf) else math.nan,
+                "object_position_error_mean": float(g["object_position_error_mean"].mean())
+                if g["object_position_error_mean"].notna().any()
+                else math.nan,
+            }
+        )
     return pd.DataFrame(
         rows,
         columns=[
             "task",
             "variant",
+            "condition",
             "trials",
             "n",
             "errors",
@@ -98,9 +113,13 @@ def significance_tests(
 ) -> pd.DataFrame:
     """Two-sided Mann–Whitney U tests of TTF: ``reference`` against every other variant, per task.
 
-    Only trials with status ``ok`` count. ``U`` is the statistic of the reference sample, so
-    ``prob_superiority`` = U / (n_ref n_other) estimates P(TTF_ref > TTF_other) + ½ P(tie). ``p_holm`` is
-    Holm-adjusted over all the tests of the table; the ``reading`` uses it at level ``alpha``.
+    Trials run under different conditions (see :func:`analysis.aggregate.add_conditions`) are not
+    pooled: a condition of the reference is tested against the same condition of the other variant,
+    and against the other variant's only condition where that variant was run under one (and the
+    other way round). Only trials with status ``ok`` count. ``U`` is the statistic of the reference
+    sample, so ``prob_superiority`` = U / (n_ref n_other) estimates P(TTF_ref > TTF_other) + ½ P(tie).
+    ``p_holm`` is Holm-adjusted over all the tests of the table; the ``reading`` uses it at level
+    ``alpha``.
 
     Args:
         df: the table of :func:`analysis.aggregate.load_records`.
@@ -108,42 +127,50 @@ def significance_tests(
         alpha: significance level of the reading.
 
     Returns:
-        One row per (task, other variant) with columns ``task``, ``reference``, ``variant``, ``n_ref``,
-        ``n_other``, ``median_ref``, ``median_other``, ``U``, ``p``, ``p_holm``, ``prob_superiority``,
-        ``reading``. Empty when no task has the reference variant.
+        One row per (task, other variant, pair of conditions) with columns ``task``, ``reference``,
+        ``reference_condition``, ``variant``, ``condition``, ``n_ref``, ``n_other``, ``median_ref``,
+        ``median_other``, ``U``, ``p``, ``p_holm``, ``prob_superiority``, ``reading``. Empty when no task
+        has the reference variant.
     """
     good = ok_trials(df)
+    pairs = [
+        (task, ref_condition, variant, condition)
+        for task in ordered(df["task"], TASK_ORDER)
+        for variant in ordered(df.loc[df["task"] == task, "variant"], VARIANT_ORDER)
+        if variant != reference
+        for ref_condition, condition in _paired(
+            conditions(df, task, reference), conditions(df, task, variant)
+        )
+    ]
     rows = []
-    for task in ordered(df["task"], TASK_ORDER):
-        in_task = df[df["task"] == task]
-        if not (in_task["variant"] == reference).any():
-            continue
-        a = good.loc[(good["task"] == task) & (good["variant"] == reference), "ttf"].to_numpy(float)
-        for variant in ordered(in_task["variant"], VARIANT_ORDER):
-            if variant == reference:
-                continue
-            b = good.loc[(good["task"] == task) & (good["variant"] == variant), "ttf"].to_numpy(float)
-            row = {
-                "task": task,
-                "reference": reference,
-                "variant": variant,
-                "n_ref": len(a),
-                "n_other": len(b),
-                "median_ref": float(np.median(a)) if len(a) else math.nan,
-                "median_other": float(np.median(b)) if len(b) else math.nan,
-                "U": math.nan,
-                "p": math.nan,
-                "prob_superiority": math.nan,
-            }
-            if len(a) and len(b):
-                res = mannwhitneyu(a, b, alternative="two-sided")
-                row.update(U=float(res.statistic), p=float(res.pvalue))
-                row["prob_superiority"] = row["U"] / (len(a) * len(b))
-            rows.append(row)
+    for task, ref_condition, variant, condition in pairs:
+        a = good.loc[_in(good, task, reference, ref_condition), "ttf"].to_numpy(float)
+        b = good.loc[_in(good, task, variant, condition), "ttf"].to_numpy(float)
+        row = {
+            "task": task,
+            "reference": reference,
+            "reference_condition": ref_condition,
+            "variant": variant,
+            "condition": condition,
+            "n_ref": len(a),
+            "n_other": len(b),
+            "median_ref": float(np.median(a)) if len(a) else math.nan,
+            "median_other": float(np.median(b)) if len(b) else math.nan,
+            "U": math.nan,
+            "p": math.nan,
+            "prob_superiority": math.nan,
+        }
+        if len(a) and len(b):
+            res = mannwhitneyu(a, b, alternative="two-sided")
+            row.update(U=float(res.statistic), p=float(res.pvalue))
+            row["prob_superiority"] = row["U"] / (len(a) * len(b))
+        rows.append(row)
     columns = [
         "task",
         "reference",
+        "reference_condition",
         "variant",
+        "condition",
         "n_ref",
         "n_other",
         "median_ref",
@@ -160,15 +187,33 @@ def significance_tests(
     return out
 
 
+def _paired(ref_conditions: list[str], other_conditions: list[str]) -> list[tuple[str, str]]:
+    """The (reference condition, other condition) pairs to test: equal ones, and every condition of
+    one side against the other side's only condition; none where either side has no trial."""
+    if len(other_conditions) == 1:
+        return [(c, other_conditions[0]) for c in ref_conditions]
+    if len(ref_conditions) == 1:
+        return [(ref_conditions[0], c) for c in other_conditions]
+    return [(c, c) for c in ref_conditions if c in other_conditions]
+
+
+def _named(variant: str, condition: str) -> str:
+    """A variant with its condition, ``"full [duration=2.0]"``, or the bare variant."""
+    return f"{variant} [{condition}]" if condition else variant
+
+
 def _reading(r, alpha: float) -> str:
     if not (r.n_ref and r.n_other):
-        missing = r.reference if not r.n_ref else r.variant
+        missing = (
+            _named(r.reference, r.reference_condition) if not r.n_ref else _named(r.variant, r.condition)
+        )
         return f"not tested: no ok trial of {missing}"
     medians = f"median {_pct(r.median_ref)} % vs {_pct(r.median_other)} %"
     small = " (small samples)" if min(r.n_ref, r.n_other) < 5 else ""
     if r.p_holm < alpha:
         direction = "longer" if r.prob_superiority > 0.5 else "shorter"
-        return f"{r.reference} lasts {direction} than {r.variant} ({medians}; Holm p = {_p(r.p_holm)}){small}"
+        ref, other = _named(r.reference, r.reference_condition), _named(r.variant, r.condition)
+        return f"{ref} lasts {direction} than {other} ({medians}; Holm p = {_p(r.p_holm)}){small}"
     return f"no significant difference at α = {alpha:g} ({medians}; Holm p = {_p(r.p_holm)}){small}"
 
 
@@ -205,11 +250,18 @@ def markdown_report(
         lines.append(f"- {label}: {', '.join(f'{k} ({n})' for k, n in sorted(counts.items()))}")
     revisions = sorted(df["git_revision"].dropna().astype(str).unique())
     lines.append(f"- Git revisions: {', '.join(f'`{r}`' for r in revisions) or 'unknown'}")
+    conditioned = bool(summary["condition"].astype(bool).any())
+    if conditioned:
+        lines.append(
+            "- Conditions: trials of one task and variant ran under different config values; each "
+            "condition is a row of its own, named by those values"
+        )
     lines += ["", "## Per task and variant", ""]
     lines += _table(
         [
             "task",
             "variant",
+            *(["condition"] if conditioned else []),
             "n",
             "errors",
             "completion",
@@ -221,6 +273,7 @@ def markdown_report(
             [
                 r.task,
                 r.variant,
+                *([r.condition or "—"] if conditioned else []),
                 r.n,
                 r.errors,
                 _pct(r.completion_rate, 0, suffix=" %"),
@@ -230,7 +283,7 @@ def markdown_report(
             ]
             for r in summary.itertuples(index=False)
         ],
-        align="llrrrrrr",
+        align="ll" + "l" * conditioned + "rrrrrr",
     )
     lines += [
         "",
@@ -248,7 +301,7 @@ def markdown_report(
             [
                 [
                     r.task,
-                    f"{r.reference} vs {r.variant}",
+                    f"{_named(r.reference, r.reference_condition)} vs {_named(r.variant, r.condition)}",
                     f"{r.n_ref} vs {r.n_other}",
                     _num(r.U, 1),
                     _p(r.p),
@@ -265,7 +318,8 @@ def markdown_report(
             "",
         ]
         lines += [
-            f"- **{r.task}**, {r.reference} vs {r.variant}: {r.reading}."
+            f"- **{r.task}**, {_named(r.reference, r.reference_condition)} vs "
+            f"{_named(r.variant, r.condition)}: {r.reading}."
             for r in tests.itertuples(index=False)
         ]
     else:

@@ -4,7 +4,9 @@ A schema is a dataclass with ``_target_`` (and ``_partial_: true`` where the cal
 object) and one field per constructor parameter, typed and defaulted from the signature. It gives the
 YAML files in ``conf/`` a schema, so a misspelt key or a wrong type fails when the config is composed,
 with Hydra's own error; and every constructor parameter can be set from the command line. The
-defaults live in one place, the constructor: the YAML files hold only what differs from them.
+defaults live in one place, the constructor: the YAML files hold only what differs from them. So do
+the values a parameter accepts (``Annotated[float, Gt(0)]``, :mod:`contactmpc.validate`), which
+:func:`check_config` checks in a composed config before anything is built.
 
 This module does not import Hydra or OmegaConf: ``launch.py`` stores the schemas in Hydra's
 ``ConfigStore`` (see :func:`launch.register_configs`).
@@ -20,9 +22,11 @@ import importlib
 import inspect
 import types
 import typing
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any
+
+from contactmpc.validate import Ge, Gt, check_values, declared, type_hints
 
 MISSING = "???"
 """OmegaConf's ``MISSING`` (a value that must be given), spelled out so this module needs no OmegaConf."""
@@ -58,13 +62,18 @@ def locate(path: str) -> Any:
     return obj
 
 
-def parameters(target: Callable) -> list[tuple[inspect.Parameter, Any]]:
+def parameters(target: Callable, extras: bool = False) -> list[tuple[inspect.Parameter, Any]]:
     """The named parameters of a function, or of a class's constructor, each with its resolved type.
 
     A constructor that takes ``**kwargs`` forwards them up the MRO (``MPPI(temperature, **kwargs)``
     -> ``Planner(num_samples, ...)``): the parameters of the next ``__init__`` follow, and so on, until
     one without ``**kwargs``. A name already seen is not repeated. ``self``, ``*args`` and ``**kwargs``
     are left out.
+
+    Args:
+        target: the function or class.
+        extras: keep ``typing.Annotated`` in the types (the checks of :mod:`contactmpc.validate`);
+            by default they are stripped to the plain type.
 
     Returns:
         ``(parameter, type)`` pairs in order: the class's own parameters first, then its bases'. The
@@ -83,7 +92,7 @@ def parameters(target: Callable) -> list[tuple[inspect.Parameter, Any]]:
         functions = [(target, False)]
     found: dict[str, tuple[inspect.Parameter, Any]] = {}
     for function, is_method in functions:
-        hints = _type_hints(function)
+        hints = type_hints(function, extras)
         params = list(inspect.signature(function).parameters.values())[1 if is_method else 0 :]
         for p in params:
             if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name in found:
@@ -133,23 +142,6 @@ def schema(target: str | Callable, *, exclude: Iterable[str] = (), partial: bool
 
 def _takes_kwargs(function: Callable) -> bool:
     return any(p.kind is p.VAR_KEYWORD for p in inspect.signature(function).parameters.values())
-
-
-def _type_hints(function: Callable) -> dict[str, Any]:
-    """``typing.get_type_hints``; where one annotation cannot be resolved (a name imported only for type
-    checking), the others still are and that one is ``Any``."""
-    try:
-        return typing.get_type_hints(function)
-    except (NameError, TypeError):
-        pass
-    hints = {}
-    for name, annotation in getattr(function, "__annotations__", {}).items():
-        holder = types.SimpleNamespace(__annotations__={name: annotation})
-        try:
-            hints.update(typing.get_type_hints(holder, globalns=function.__globals__))
-        except (NameError, TypeError):
-            hints[name] = Any
-    return hints
 
 
 def _field_type(hint: Any) -> Any:
@@ -209,10 +201,45 @@ class Config:
     variant: Any = None
     experiment: Any = None
     scene: SceneConf = field(default_factory=SceneConf)
-    seed: int = 0
+    seed: Annotated[int, Ge(0)] = 0
     resume: bool = True
-    duration: float | None = None
+    duration: Annotated[float, Gt(0)] | None = None
     output_dir: str = "${hydra:runtime.output_dir}"
+
+
+def check_config(config: Mapping[str, Any]) -> None:
+    """Check a composed, resolved config before anything is built (``launch.main`` calls it first).
+
+    Each value is checked against what its parameter declares (:mod:`contactmpc.validate`): the root
+    values against :class:`Config`'s annotations (OmegaConf never calls a dataclass's
+    ``__post_init__``: it merges into the schema without constructing it), every node with a
+    ``_target_`` against the signature of what it builds (:func:`parameters`), and every float,
+    anywhere, must be finite. A node's own values are checked before its sub-nodes, so a root value
+    (``duration``) is named before the job's copy of it (``job.duration``).
+
+    Args:
+        config: the config as plain containers (``OmegaConf.to_container(cfg, resolve=True)``).
+
+    Raises:
+        ConfigError: one line naming the first value that is not accepted, by its key:
+            ``planner.horizon must be finite and > 0, got nan``.
+    """
+    _check_node(config, "", {name: declared(hint) for name, hint in type_hints(Config, extras=True).items()})
+
+
+def _check_node(node: Mapping[str, Any], key: str, checks: Mapping[str, tuple]) -> None:
+    check_values(key, {k: v for k, v in node.items() if not isinstance(v, Mapping)}, checks)
+    for name, value in node.items():
+        if isinstance(value, Mapping):
+            target = value.get("_target_")
+            found = {} if not isinstance(target, str) else _declared(target)
+            _check_node(value, f"{key}{name}.", found)
+
+
+@functools.cache
+def _declared(target: str) -> dict[str, tuple]:
+    """The checks declared by the parameters of ``target`` (a dotted path), by parameter name."""
+    return {p.name: declared(hint) for p, hint in parameters(locate(target), extras=True)}
 
 
 # ---------------------------------------------------------------------------------------- members

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
 import subprocess
-import tempfile
 from importlib import metadata
 from pathlib import Path
 
@@ -17,8 +17,12 @@ SCHEMA_VERSION = 1
 
 
 def _atomic_write(path: Path, write) -> None:
+    """Write ``path`` through a temp file in its directory and a rename: readers see the old file or
+    the new one, never half of it. The file gets the permissions of any new file (0666 less the
+    umask, e.g. 0644), not the 0600 of :func:`tempfile.mkstemp`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    tmp = path.parent / f".{path.name}.{secrets.token_hex(8)}.tmp"
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)

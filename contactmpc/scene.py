@@ -9,12 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Annotated
 
 import mujoco
 import numpy as np
 
 from contactmpc.hands.base import Hand
 from contactmpc.tasks.base import Task
+from contactmpc.validate import Gt, checked
 
 
 class SceneError(RuntimeError):
@@ -163,15 +165,16 @@ class Scene:
         SceneError: if the scene does not compile or a name does not resolve.
     """
 
+    @checked
     def __init__(
         self,
         hand: Hand,
         task: Task,
-        plant_timestep: float = 0.001,
-        planner_timestep: float = 0.01,
+        plant_timestep: Annotated[float, Gt(0)] = 0.001,
+        planner_timestep: Annotated[float, Gt(0)] = 0.01,
         integrator: str = "implicitfast",
         cone: str = "elliptic",
-        impratio: float = 10.0,
+        impratio: Annotated[float, Gt(0)] = 10.0,
         hand_root: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
         if not 0 < plant_timestep <= planner_timestep:

@@ -8,6 +8,7 @@ The same scene, reference, config and seed give the same log, bit for bit.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Annotated
 
 import mujoco
 import numpy as np
@@ -19,6 +20,7 @@ from contactmpc.control.problem import Problem
 from contactmpc.control.samplers import SplineSpace
 from contactmpc.reference.data import Reference
 from contactmpc.scene import Scene
+from contactmpc.validate import Ge, Gt, checked
 
 
 class PlantDiverged(RuntimeError):
@@ -72,6 +74,7 @@ class Trial:
         progress: show a progress bar.
     """
 
+    @checked
     def __init__(
         self,
         scene: Scene,
@@ -79,9 +82,9 @@ class Trial:
         space: SplineSpace,
         cost: TrackingCost,
         planner: Planner,
-        seed: int,
+        seed: Annotated[int, Ge(0)],
         num_control_points: int | None = None,
-        duration: float | None = None,
+        duration: Annotated[float, Gt(0)] | None = None,
         progress: bool = True,
     ) -> None:
         self.scene, self.reference, self.planner = scene, reference, planner

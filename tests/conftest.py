@@ -28,15 +28,18 @@ from omegaconf import DictConfig  # noqa: E402
 import launch  # noqa: E402  (registers the ConfigStore schemas at import)
 
 
-def compose_config(overrides: Sequence[str] = ()) -> DictConfig:
+def compose_config(overrides: Sequence[str] = (), return_hydra_config: bool = False) -> DictConfig:
     """Compose ``conf/config.yaml`` with command-line style ``overrides`` (e.g. ``["task=stapler"]``).
 
     Hydra's global state is set up for the call only and restored afterwards, so this can be called
-    any number of times and does not clash with other users of ``GlobalHydra``.
+    any number of times and does not clash with other users of ``GlobalHydra``. With
+    ``return_hydra_config`` the result keeps its ``hydra`` node (launcher, sweeper, runtime choices).
     """
     launch.register_configs()  # idempotent; guards against a ConfigStore cleared by another test
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        return hydra_compose(config_name="config", overrides=list(overrides))
+        return hydra_compose(
+            config_name="config", overrides=list(overrides), return_hydra_config=return_hydra_config
+        )
 
 
 _SCENES: dict[tuple[str, ...], object] = {}

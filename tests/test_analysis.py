@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import copy
 import os
+import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -65,9 +68,28 @@ def make_record(task: str, variant: str, seed: int, ttf: float, **extra) -> dict
         "diverged_rollouts": 0,
         "versions": {"contactmpc": "0.1.0", "numpy": "2.0"},
         "git_revision": "abc123",
-        "config": {"seed": seed, "planner": {"num_samples": 128, "horizon": 2.5, "replan_period": 0.01}},
+        "config": {
+            "seed": seed,
+            "duration": None,
+            "planner": {"num_samples": 128, "horizon": 2.5, "replan_period": 0.01, "nthread": 2},
+            "cost": {"lambda_o": 1.0, "lambda_c": 0.0 if cost == "object_only" else 1.0, "lambda_v": 0.01},
+            "job": {"progress": False, "duration": None, "failure_gap": 0.3},
+            "output_dir": f"outputs/sweeps/x/task={task},variant={variant},seed={seed}",
+        },
     }
     record.update(extra)
+    return record
+
+
+def with_config(record: dict, **values) -> dict:
+    """``record`` with config values set by dotted key (``**{"cost.lambda_v": 0.001}``)."""
+    record = copy.deepcopy(record)
+    for key, value in values.items():
+        *path, last = key.split(".")
+        node = record["config"]
+        for part in path:
+            node = node[part]
+        node[last] = value
     return record
 
 
@@ -95,9 +117,11 @@ def sweep(tmp_path_factory) -> Path:
     mppi.pop("completed")
     write_json(root / str(job) / "trial.json", mppi)
     job += 1
-    # a duplicate of apple/full seed 0 with a newer modification time: it wins
+    # a second run of apple/full seed 0 (another output_dir and thread count: the same trial) with a
+    # newer modification time: it wins
+    rerun = make_record("apple", "full", 0, 0.77)
     newer = root / "rerun" / "trial.json"
-    write_json(newer, make_record("apple", "full", 0, 0.77))
+    write_json(newer, with_config(rerun, output_dir="elsewhere", **{"planner.nthread": 1}))
     old = root / "0" / "trial.json"
     os.utime(old, (1_000_000_000, 1_000_000_000))
     # an unreadable (truncated) record
@@ -108,8 +132,16 @@ def sweep(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def table(sweep) -> pd.DataFrame:
-    with pytest.warns(RecordWarning, match=r"broken.trial\.json"):
-        return load_records(sweep)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df = load_records(sweep)
+    messages = sorted(str(w.message) for w in caught if issubclass(w.category, RecordWarning))
+    assert len(messages) == 2, messages
+    assert re.search(r"broken.trial\.json", messages[0])
+    assert re.search(
+        r"same trial .* 2 times: keeping the newest, .*rerun.trial\.json; dropping .*0.trial", messages[1]
+    )
+    return df
 
 
 def test_variant_name():
@@ -284,3 +316,89 @@ def test_cli_bad_directory(tmp_path):
 def test_import_is_cheap():
     proc = _run("-c", "import sys, analysis; assert 'matplotlib' not in sys.modules; analysis.load_records")
     assert proc.returncode == 0, proc.stderr
+
+
+# ------------------------------------------------------------------- distinct trials are kept apart
+
+
+def _load_quietly(*dirs) -> pd.DataFrame:
+    """``load_records`` that fails on any warning: no record here is a duplicate."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return load_records(*dirs)
+
+
+@pytest.fixture
+def conditions_sweep(tmp_path) -> Path:
+    """apple: full under three conditions (two durations, two velocity weights), no_contact under one."""
+    root = tmp_path / "sweep"
+    full, no_contact = VARIANTS["full"][-1], VARIANTS["no_contact"][-1]
+    for seed in range(3):
+        base = make_record("apple", "full", seed, full[seed])
+        write_json(root / f"base{seed}" / "trial.json", base)
+        longer = with_config(make_record("apple", "full", seed, 0.5), duration=2.0, **{"job.duration": 2.0})
+        write_json(root / f"long{seed}" / "trial.json", longer)
+        slow = with_config(make_record("apple", "full", seed, 0.6), **{"cost.lambda_v": 0.001})
+        write_json(root / f"lv{seed}" / "trial.json", slow)
+        write_json(
+            root / f"nc{seed}" / "trial.json", make_record("apple", "no_contact", seed, no_contact[seed])
+        )
+    return root
+
+
+def test_trials_that_differ_in_config_are_kept_apart(conditions_sweep):
+    """Records that differ in ``duration`` or a cost weight are different trials: none is dropped, the
+    differing values become columns and the condition, and no duplicate is reported."""
+    df = _load_quietly(conditions_sweep)
+    assert len(df) == 12
+    assert {"duration", "cost.lambda_v"} <= set(df.columns)
+    assert "job.duration" not in df and "output_dir" not in df and "seed" in df
+    full = df[df["variant"] == "full"]
+    assert sorted(set(full["condition"])) == [
+        "cost.lambda_v=0.001, duration=null",
+        "cost.lambda_v=0.01, duration=2.0",
+        "cost.lambda_v=0.01, duration=null",
+    ]
+    assert full.groupby("condition").size().eq(3).all()
+    assert set(df.loc[df["variant"] == "no_contact", "condition"]) == {""}  # one condition: no label
+    assert set(df["duration"].dropna()) == {2.0} and set(df["cost.lambda_v"]) == {0.01, 0.001}
+    assert df["trial_id"].nunique() == 12
+
+
+def test_tables_figures_and_tests_group_by_condition(conditions_sweep, tmp_path):
+    df = _load_quietly(conditions_sweep)
+    summary = summary_table(df)
+    assert list(zip(summary["variant"], summary["n"], strict=True)) == [("full", 3)] * 3 + [("no_contact", 3)]
+    longer = summary[summary["condition"] == "cost.lambda_v=0.01, duration=2.0"].iloc[0]
+    assert longer["ttf_median"] == pytest.approx(0.5)
+    tests = significance_tests(df)
+    # each condition of full against no_contact's only one; never pooled
+    assert len(tests) == 3 and set(tests["condition"]) == {""} and tests["n_ref"].eq(3).all()
+    md = markdown_report(df)
+    assert "| apple | full | cost.lambda_v=0.01, duration=2.0 | 3 |" in md
+    assert "full [cost.lambda_v=0.001, duration=null] vs no_contact" in md
+    fig = ttf_boxplot(df, tmp_path / "fig.png")
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert len(labels) == 4 and sum("duration=2.0" in label for label in labels) == 1
+    assert [t.get_text() for t in fig.axes[0].texts].count("n=3") == 4
+
+
+def test_the_same_trial_in_two_sweeps_is_one_row_and_a_warning(tmp_path):
+    """Only the paths and timings differ (output_dir, planner.nthread, job.progress, the sweep): the
+    same trial, kept once (the newest), with a warning naming both records."""
+    record = make_record("bottle", "full", 3, 0.9)
+    old = write_json(tmp_path / "a" / "0" / "trial.json", record)
+    os.utime(old, (1_000_000_000, 1_000_000_000))
+    again = with_config(
+        make_record("bottle", "full", 3, 0.8, wall_seconds=12.0),
+        output_dir="b/0",
+        **{"planner.nthread": 16, "job.progress": True},
+    )
+    new = write_json(tmp_path / "b" / "0" / "trial.json", again)
+    for d in ("a", "b"):
+        (tmp_path / d / "multirun.yaml").write_text("hydra: {}\n")
+    with pytest.warns(RecordWarning, match="same trial") as caught:
+        df = load_records(tmp_path)
+    assert len(df) == 1 and df["ttf"].iloc[0] == pytest.approx(0.8)
+    assert str(new.resolve()) in str(caught[0].message) and str(old.resolve()) in str(caught[0].message)
+    assert set(df["condition"]) == {""}

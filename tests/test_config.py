@@ -8,6 +8,7 @@ so they keep up with constructors that change.
 from __future__ import annotations
 
 import dataclasses
+import enum
 import functools
 import inspect
 from pathlib import Path
@@ -255,3 +256,51 @@ def test_root_config_does_not_restate_a_default(key, cls):
     values = OmegaConf.to_container(OmegaConf.load(CONF_DIR / "config.yaml"), resolve=False).get(key) or {}
     restated = _restated(values, configurable(cls))
     assert not restated, f"config.yaml {key}: restates constructor defaults: {restated}"
+
+
+# ----------------------------------------------------------------------- experiments win over the root
+
+EXPERIMENTS = sorted((CONF_DIR / "experiment").glob("*.yaml"))
+
+
+def _leaves(node: Any, prefix: str = "") -> list[tuple[str, Any]]:
+    """``(dotted key, value)`` of every leaf of a YAML mapping (a list is one leaf)."""
+    if not isinstance(node, dict):
+        return [(prefix, node)]
+    return [leaf for k, v in node.items() for leaf in _leaves(v, f"{prefix}{k}.")]
+
+
+def _same_setting(written: Any, composed: Any) -> bool:
+    """A YAML value and its composed value (Hydra holds ``hydra.mode`` as an enum and sweeper
+    parameters as strings)."""
+    if isinstance(composed, enum.Enum):
+        composed = composed.name
+    return written == composed or (isinstance(composed, str) and str(written) == composed)
+
+
+@pytest.mark.parametrize("path", EXPERIMENTS, ids=[p.stem for p in EXPERIMENTS])
+def test_every_value_an_experiment_sets_is_in_the_composed_config(path):
+    """An experiment file (package ``_global_``) wins over ``config.yaml``: each value it sets and each
+    default it overrides is what the composed config holds (``duration`` was silently null)."""
+    values = OmegaConf.to_container(OmegaConf.load(path), resolve=False)
+    defaults = values.pop("defaults", [])
+    cfg = compose_config([f"experiment={path.stem}"], return_hydra_config=True)
+    composed = {key: OmegaConf.select(cfg, key[:-1]) for key, _ in _leaves(values)}
+    wrong = {
+        key[:-1]: (v, composed[key]) for key, v in _leaves(values) if not _same_setting(v, composed[key])
+    }
+    assert not wrong, f"{path.name}: set -> composed: {wrong}"
+    choices = cfg.hydra.runtime.choices
+    for entry in defaults:
+        ((group, choice),) = entry.items()
+        group = group.removeprefix("override ").strip().lstrip("/")
+        assert choices[group] == choice, f"{path.name}: {group} is {choices[group]}, not {choice}"
+
+
+def test_presets_and_variants_still_set_their_groups():
+    paper = compose_config(["preset=paper", "variant=no_contact"])
+    assert (paper.planner.num_samples, paper.planner.horizon, paper.planner.replan_period) == (128, 2.5, 0.01)
+    assert paper.cost.lambda_c == 0.0 and paper.sampler._target_.endswith("PCASplineSpace")
+    joint = compose_config(["variant=joint_space", "planner=replay"])
+    assert joint.sampler._target_.endswith("JointSplineSpace") and joint.planner.num_samples == 32
+    assert compose_config(["experiment=smoke", "duration=1.0"]).duration == 1.0  # the command line wins

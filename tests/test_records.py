@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import stat
 
 import numpy as np
 import pytest
@@ -36,3 +38,18 @@ def test_series_round_trip(tmp_path):
     loaded = np.load(path)
     for key, value in arrays.items():
         np.testing.assert_array_equal(loaded[key], value)
+
+
+@pytest.mark.parametrize(("umask", "mode"), [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
+def test_records_get_the_permissions_of_a_new_file(tmp_path, umask, mode):
+    """Records and series are written 0666 less the umask, like any new file (not mkstemp's 0600)."""
+    old = os.umask(umask)
+    try:
+        paths = [
+            records.write_json(tmp_path / "trial.json", {"status": "ok"}),
+            records.write_series(tmp_path / "timeseries.npz", {"time": np.zeros(2)}),
+            records.write_json(tmp_path / "trial.json", {"status": "ok"}),  # a replaced record too
+        ]
+    finally:
+        os.umask(old)
+    assert [stat.S_IMODE(p.stat().st_mode) for p in paths] == [mode] * 3

@@ -14,6 +14,7 @@ from omegaconf import OmegaConf
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners import PredictiveSampling
 from contactmpc.control.samplers import PCASplineSpace
+from contactmpc.reference import source
 from contactmpc.trial import Trial
 from tests.conftest import REPO_ROOT, TASKS, build_scene, compose_config
 from tests.helpers import static_reference
@@ -68,6 +69,27 @@ def test_trial_video_is_written_next_to_the_record(reference_files, tmp_path):
     assert record["status"] == "ok", record.get("error")
     assert (tmp_path / "trial.gif").stat().st_size > 1000
     assert record["video"].endswith("trial.gif")
+
+
+def test_write_reference_uses_the_reference_cache(tmp_path, monkeypatch):
+    """``job=write_reference`` reads the trial job's reference cache instead of synthesising again."""
+    assert compose_config(["job=write_reference"]).job.reference_cache == compose_config().job.reference_cache
+    scene = build_scene(("task=apple",))
+    cached = static_reference(scene, duration=0.2, frames=6)  # not what synthesis would give
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    cached.save(cache / f"apple_{source._fingerprint(scene)}.npz")
+
+    def no_synthesis(*args, **kwargs):
+        raise AssertionError("synthesised although the reference is cached")
+
+    monkeypatch.setattr(source, "synthesize", no_synthesis)
+    out = tmp_path / "apple.npz"
+    path = run_job(
+        ["task=apple", "job=write_reference", f"job.path={out}", f"job.reference_cache={cache}"], tmp_path
+    )
+    assert path == out
+    np.testing.assert_array_equal(np.load(out)["hand_qpos"], cached.hand_qpos)
 
 
 def _trial(scene, ref, seed):

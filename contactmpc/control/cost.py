@@ -12,11 +12,14 @@ from the rollout's ``sensordata``, so no Python runs per simulated step.
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import numba
 import numpy as np
 
 from contactmpc.control.track import ReferenceTrack
 from contactmpc.scene import Scene
+from contactmpc.validate import Ge, checked
 
 
 @numba.njit(cache=True, parallel=True)
@@ -77,13 +80,14 @@ class TrackingCost:
 
     terms = ("object", "contact", "velocity")
 
+    @checked
     def __init__(
         self,
-        lambda_o: float = 1.0,
-        lambda_c: float = 1.0,
-        lambda_v: float = 0.01,
-        rotation_weight: float = 0.1,
-        articulation_weight: float = 1.0,
+        lambda_o: Annotated[float, Ge(0)] = 1.0,
+        lambda_c: Annotated[float, Ge(0)] = 1.0,
+        lambda_v: Annotated[float, Ge(0)] = 0.01,
+        rotation_weight: Annotated[float, Ge(0)] = 0.1,
+        articulation_weight: Annotated[float, Ge(0)] = 1.0,
     ) -> None:
         self.lambda_o = float(lambda_o)
         self.lambda_c = float(lambda_c)

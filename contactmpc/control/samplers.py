@@ -17,10 +17,13 @@ points through ``P^T z + p`` is exact: the curve of the mapped points is the map
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import numpy as np
 
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis, PCACurves
+from contactmpc.validate import Ge, checked
 
 
 class SplineSpace:
@@ -33,17 +36,14 @@ class SplineSpace:
         num_components: number of PCs kept (PCA space only); ``None`` keeps one per finger joint.
     """
 
+    @checked
     def __init__(
         self,
-        sigma2: float,
-        root_sigma2: float = 0.0,
+        sigma2: Annotated[float, Ge(0)],
+        root_sigma2: Annotated[float, Ge(0)] = 0.0,
         whiten: bool = False,
-        num_components: int | None = None,
+        num_components: Annotated[int, Ge(1)] | None = None,
     ) -> None:
-        if sigma2 < 0 or root_sigma2 < 0:
-            raise ValueError(
-                f"sampler variances must be >= 0, got sigma2={sigma2}, root_sigma2={root_sigma2}"
-            )
         self.sigma2 = float(sigma2)
         self.root_sigma2 = float(root_sigma2)
         self.whiten = bool(whiten)

@@ -19,11 +19,13 @@ Example:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
 import mujoco
 import numpy as np
 
 from contactmpc.hands.base import FloatingHand
+from contactmpc.validate import Ge, Gt, checked
 
 __all__ = ["AllegroHand"]
 
@@ -156,12 +158,13 @@ class AllegroHand(FloatingHand):
         "thj3",
     )
 
+    @checked
     def __init__(
         self,
-        kp_finger: float = 10.0,
-        damping_finger: float = 1.0,
-        armature_finger: float = 0.01,
-        force_limit_finger: float = 0.7,
+        kp_finger: Annotated[float, Ge(0)] = 10.0,
+        damping_finger: Annotated[float, Ge(0)] = 1.0,
+        armature_finger: Annotated[float, Ge(0)] = 0.01,
+        force_limit_finger: Annotated[float, Gt(0)] = 0.7,
         name: str = "allegro_right",
         **kwargs,
     ) -> None:
@@ -170,8 +173,6 @@ class AllegroHand(FloatingHand):
         self.damping_finger = float(damping_finger)
         self.armature_finger = float(armature_finger)
         self.force_limit_finger = float(force_limit_finger)
-        if self.force_limit_finger <= 0:
-            raise ValueError(f"force_limit_finger must be > 0, got {self.force_limit_finger}")
 
     def __repr__(self) -> str:
         return (

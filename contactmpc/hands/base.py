@@ -24,9 +24,12 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from typing import Annotated
 
 import mujoco
 import numpy as np
+
+from contactmpc.validate import ConfigError, Ge, checked
 
 __all__ = ["FloatingHand", "Hand"]
 
@@ -140,13 +143,14 @@ class FloatingHand(Hand):
     LINKS: tuple[str, ...] = ()
     FLEXION: tuple[str, ...] = ()
 
+    @checked
     def __init__(
         self,
-        kp_slide: float = 600.0,
-        damping_slide: float = 60.0,
-        kp_hinge: float = 40.0,
-        damping_hinge: float = 3.0,
-        armature_wrist: float = 0.0,
+        kp_slide: Annotated[float, Ge(0)] = 600.0,
+        damping_slide: Annotated[float, Ge(0)] = 60.0,
+        kp_hinge: Annotated[float, Ge(0)] = 40.0,
+        damping_hinge: Annotated[float, Ge(0)] = 3.0,
+        armature_wrist: Annotated[float, Ge(0)] = 0.0,
         slide_range: tuple[float, float] = (-1.0, 1.0),
         hinge_range: tuple[float, float] = (-6.2832, 6.2832),
         gravcomp: bool = True,
@@ -163,7 +167,9 @@ class FloatingHand(Hand):
         self.name = str(name)
         for label, (lo, hi) in (("slide_range", self.slide_range), ("hinge_range", self.hinge_range)):
             if not lo < hi:
-                raise ValueError(f"{label} must be (low, high) with low < high, got {(lo, hi)}")
+                raise ConfigError(
+                    f"{type(self).__name__}.{label} must be (low, high) with low < high, got {[lo, hi]}"
+                )
 
     @property
     def root_joints(self) -> tuple[str, ...]:

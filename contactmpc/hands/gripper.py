@@ -10,9 +10,12 @@ root turned by rx = pi points them down) and close towards each other along y on
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import mujoco
 
 from contactmpc.hands.base import FloatingHand
+from contactmpc.validate import ConfigError, Ge, Gt, checked
 
 __all__ = ["ParallelGripper"]
 
@@ -35,20 +38,23 @@ class ParallelGripper(FloatingHand):
     LINKS: tuple[str, ...] = ("palm", "left_finger", "right_finger")
     FLEXION: tuple[str, ...] = FINGER_JOINTS
 
+    @checked
     def __init__(
         self,
-        stroke: float = 0.035,
-        opening: float = 0.1,
-        finger_length: float = 0.06,
-        kp_finger: float = 200.0,
-        damping_finger: float = 20.0,
-        force_limit_finger: float = 20.0,
+        stroke: Annotated[float, Gt(0)] = 0.035,
+        opening: Annotated[float, Gt(0)] = 0.1,
+        finger_length: Annotated[float, Gt(0)] = 0.06,
+        kp_finger: Annotated[float, Ge(0)] = 200.0,
+        damping_finger: Annotated[float, Ge(0)] = 20.0,
+        force_limit_finger: Annotated[float, Gt(0)] = 20.0,
         name: str = "parallel_gripper",
         **kwargs,
     ) -> None:
         super().__init__(name=name, **kwargs)
-        if not 0 < stroke < opening / 2:
-            raise ValueError(f"gripper stroke must be in (0, opening / 2), got {stroke} (opening {opening})")
+        if not stroke < opening / 2:
+            raise ConfigError(
+                f"{type(self).__name__}.stroke must be < opening / 2 ({opening / 2:g}), got {stroke!r}"
+            )
         self.stroke = float(stroke)
         self.opening = float(opening)
         self.finger_length = float(finger_length)

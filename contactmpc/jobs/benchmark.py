@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Annotated
 
 import mujoco
 import numpy as np
@@ -24,6 +25,7 @@ from contactmpc.records import write_json
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
 from contactmpc.trial import Trial
+from contactmpc.validate import Ge, Le, checked
 
 
 def _median_time(fn: Callable[[], object], repeats: int) -> float:
@@ -36,16 +38,17 @@ def _median_time(fn: Callable[[], object], repeats: int) -> float:
     return float(np.median(times))
 
 
+@checked
 def benchmark_planner(
     make_scene: Callable[[], Scene],
     output_dir: str | Path,
-    seed: int,
+    seed: Annotated[int, Ge(0)],
     sampler: SplineSpace,
     cost: TrackingCost,
     planner: Planner,
-    threads: list[int] | None = None,
-    repeats: int = 10,
-    at_fraction: float = 0.5,
+    threads: list[Annotated[int, Ge(1)]] | None = None,
+    repeats: Annotated[int, Ge(1)] = 10,
+    at_fraction: Annotated[float, Ge(0), Le(1)] = 0.5,
     reference_cache: str | None = "outputs/cache/references",
     **_,
 ) -> Path:

@@ -4,17 +4,20 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Annotated
 
 from contactmpc.reference.source import get_reference
 from contactmpc.render import render_reference_filmstrip
 from contactmpc.scene import Scene
+from contactmpc.validate import Ge, checked
 
 
+@checked
 def reference_filmstrip(
     make_scene: Callable[[], Scene],
     output_dir: str | Path,
-    num_frames: int = 7,
-    size: tuple[int, int] = (240, 320),
+    num_frames: Annotated[int, Ge(1)] = 7,
+    size: tuple[Annotated[int, Ge(1)], Annotated[int, Ge(1)]] = (240, 320),
     reference_cache: str | None = "outputs/cache/references",
     **_,
 ) -> Path:

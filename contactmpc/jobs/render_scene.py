@@ -4,13 +4,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Annotated
 
 from contactmpc.render import render_frame, task_camera, write_png
 from contactmpc.scene import Scene
+from contactmpc.validate import Ge, checked
 
 
+@checked
 def render_scene(
-    make_scene: Callable[[], Scene], output_dir: str | Path, size: tuple[int, int] = (480, 640), **_
+    make_scene: Callable[[], Scene],
+    output_dir: str | Path,
+    size: tuple[Annotated[int, Ge(1)], Annotated[int, Ge(1)]] = (480, 640),
+    **_,
 ) -> Path:
     """Render the task's scene with the hand in its initial pose to ``<output_dir>/scene_<task>.png``.
 

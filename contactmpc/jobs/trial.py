@@ -7,6 +7,7 @@ import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
+from typing import Annotated
 
 import numpy as np
 
@@ -18,32 +19,36 @@ from contactmpc.records import RECORD_NAME, SERIES_NAME, git_revision, versions,
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
 from contactmpc.trial import PlantDiverged, Trial
+from contactmpc.validate import Ge, Gt, OneOf, checked
 
 logger = logging.getLogger(__name__)
 
 
+@checked
 def run_trial(
     make_scene: Callable[[], Scene],
     output_dir: str | Path,
-    seed: int,
+    seed: Annotated[int, Ge(0)],
     sampler: SplineSpace,
     cost: TrackingCost,
     planner: Planner,
     num_control_points: int | None = None,
-    duration: float | None = None,
+    duration: Annotated[float, Gt(0)] | None = None,
     progress: bool = True,
-    failure_gap: float = 0.3,
-    failure_min_expected: int = 6,
+    failure_gap: Annotated[float, Ge(0)] = 0.3,
+    failure_min_expected: Annotated[int, Ge(0)] = 6,
     reference_cache: str | None = "outputs/cache/references",
-    video: str | None = None,
-    video_speed: float = 1.0,
+    video: Annotated[str, OneOf("gif", "mp4")] | None = None,
+    video_speed: Annotated[float, Gt(0)] = 1.0,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
     """Run one closed-loop trial and write its record (``trial.json`` + ``timeseries.npz``).
 
-    The record is written whatever happens: a trial that raises gets ``status`` ``"error"`` (or
-    ``"diverged"``) and the reason, and the exception is re-raised after the record is on disk.
+    The record is written whatever happens once the trial has started: a trial that raises gets
+    ``status`` ``"error"`` (or ``"diverged"``) and the reason, and the exception is re-raised after the
+    record is on disk. An argument its declaration does not accept (``Annotated``, see
+    :mod:`contactmpc.validate`) raises before anything is done or written.
 
     Args:
         make_scene: builds the scene (inside the record's guard, so a scene that fails to compile

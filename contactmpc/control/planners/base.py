@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Annotated
 
 import numpy as np
 
 from contactmpc.control.cost import as_index
 from contactmpc.control.problem import Problem
 from contactmpc.control.rollout import RolloutEngine
+from contactmpc.validate import Ge, Gt, checked
 
 
 @dataclass
@@ -59,18 +61,14 @@ class Planner:
 
     needs_rollouts = True
 
+    @checked
     def __init__(
         self,
-        num_samples: int = 128,
-        horizon: float = 2.5,
-        replan_period: float = 0.01,
-        nthread: int | None = None,
+        num_samples: Annotated[int, Ge(1)] = 128,
+        horizon: Annotated[float, Gt(0)] = 2.5,
+        replan_period: Annotated[float, Gt(0)] = 0.01,
+        nthread: Annotated[int, Ge(1)] | None = None,
     ) -> None:
-        if num_samples < 1 or horizon <= 0 or replan_period <= 0:
-            raise ValueError(
-                f"planner needs num_samples >= 1, horizon > 0, replan_period > 0; got "
-                f"{num_samples}, {horizon}, {replan_period}"
-            )
         self.num_samples = int(num_samples)
         self.horizon = float(horizon)
         self.replan_period = float(replan_period)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import numpy as np
 
 from contactmpc.control.planners.base import Planner
+from contactmpc.validate import ConfigError, Ge, Gt, checked
 
 
 class CEM(Planner):
@@ -20,12 +23,20 @@ class CEM(Planner):
         **kwargs: see :class:`~contactmpc.control.planners.base.Planner`.
     """
 
+    @checked
     def __init__(
-        self, num_elites: int = 8, min_std_ratio: float = 0.1, max_std_ratio: float = 1.0, **kwargs
+        self,
+        num_elites: Annotated[int, Ge(1)] = 8,
+        min_std_ratio: Annotated[float, Ge(0)] = 0.1,
+        max_std_ratio: Annotated[float, Gt(0)] = 1.0,
+        **kwargs,
     ) -> None:
         super().__init__(**kwargs)
-        if not 1 <= num_elites <= self.num_samples:
-            raise ValueError(f"cem num_elites must be in [1, num_samples], got {num_elites}")
+        if num_elites > self.num_samples:
+            raise ConfigError(
+                f"{type(self).__name__}.num_elites must be <= num_samples "
+                f"({self.num_samples}), got {num_elites}"
+            )
         self.num_elites = int(num_elites)
         self.min_std_ratio = float(min_std_ratio)
         self.max_std_ratio = float(max_std_ratio)

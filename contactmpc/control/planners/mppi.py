@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import numpy as np
 
 from contactmpc.control.planners.base import Planner
+from contactmpc.validate import Gt, checked
 
 
 class MPPI(Planner):
@@ -18,10 +21,9 @@ class MPPI(Planner):
         **kwargs: see :class:`~contactmpc.control.planners.base.Planner`.
     """
 
-    def __init__(self, temperature: float = 0.1, **kwargs) -> None:
+    @checked
+    def __init__(self, temperature: Annotated[float, Gt(0)] = 0.1, **kwargs) -> None:
         super().__init__(**kwargs)
-        if temperature <= 0:
-            raise ValueError(f"mppi temperature must be > 0, got {temperature}")
         self.temperature = float(temperature)
 
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
