@@ -3,7 +3,9 @@
 TTF (paper §III-A): a trial fails when the hand touches the object nowhere for ``gap`` seconds
 (300 ms) while more than ``min_expected`` (six) expected contacts exist at every instant of that
 time. TTF is the fraction of the span between the first and the last instants with any expected
-contact that passed before the failure, 1.0 if it never fails. The failure time reported is the
+contact that passed before the failure, 1.0 if it never fails. A trial during which no contact is
+expected at all (it ended before the reference's first expected contact) has no TTF (``None``): it
+says nothing about keeping contact, and 1.0 would overstate it. The failure time reported is the
 instant the hand lost its last contact, i.e. the start of the failing gap (the trial is *declared*
 failed ``gap`` seconds later).
 """
@@ -20,16 +22,19 @@ class TTFResult:
     """Outcome of the contact monitor.
 
     Attributes:
-        ttf: fraction in [0, 1] of the contact span that passed before failure (1.0: no failure).
+        ttf: fraction in [0, 1] of the contact span that passed before failure (1.0: no failure);
+            ``None`` when no contact was expected during the trial.
         failed: whether the failure rule fired.
         failure_time: start of the failing gap (s), or ``None``.
         span: (first, last) instants with any expected contact (s), or ``None`` if there are none.
+        note: why ``ttf`` is ``None``, else ``None``.
     """
 
-    ttf: float
+    ttf: float | None
     failed: bool
     failure_time: float | None
     span: tuple[float, float] | None
+    note: str | None = None
 
 
 def time_to_failure(
@@ -56,7 +61,9 @@ def time_to_failure(
     n_expected = np.asarray(expected, bool).sum(axis=-1)
     any_expected = n_expected > 0
     if not any_expected.any():
-        return TTFResult(1.0, False, None, None)
+        end = float(time[-1]) if len(time) else 0.0
+        note = f"no contact was expected during the trial (0 to {end:.3f} s): it ended before the span starts"
+        return TTFResult(None, False, None, None, note)
     first, last = time[np.argmax(any_expected)], time[len(time) - 1 - np.argmax(any_expected[::-1])]
     eligible = ~touching & (n_expected > min_expected)
     start = None

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from contactmpc.metrics import time_to_failure
+from contactmpc.tasks import BottleTask
+from contactmpc.tasks.base import sustained
 
 DT = 0.001
 
@@ -79,7 +81,44 @@ def test_custom_thresholds():
     assert not time_to_failure(t, c, e, gap=0.1, min_expected=8).failed
 
 
-def test_no_expected_contacts_means_no_span():
+def test_no_expected_contacts_means_no_ttf():
+    """A trial that ends before the contact span starts has no TTF (not 1.0), and says why."""
     t, c, e = log(expected_links=0)
     r = time_to_failure(t, c, e)
-    assert (r.ttf, r.failed, r.span) == (1.0, False, None)
+    assert (r.ttf, r.failed, r.span) == (None, False, None)
+    assert "no contact was expected during the trial" in r.note
+
+
+# ------------------------------------------------------------------------------------- milestones
+def test_sustained_needs_a_run_of_the_given_duration():
+    t = np.arange(10) * 0.05
+    mask = np.zeros(10, bool)
+    mask[[1, 3, 4, 5]] = True  # an instant, then 0.10 s in a row
+    assert sustained(mask, t, 0.0)
+    assert sustained(mask, t, 0.10)
+    assert not sustained(mask, t, 0.11)
+    assert not sustained(np.zeros(10, bool), t, 0.0)
+
+
+def _bottle_log(held: bool, dwell: int):
+    """A bottle lifted 10 cm and tilted to pour in place for ``dwell`` samples of 50 ms."""
+    task = BottleTask(hand_home=[0.0] * 22)
+    n = 40
+    t = np.arange(n) * 0.05
+    qo = np.tile([0.0, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0], (n, 1))
+    qo[0, 2] = 0.0  # resting on the table at the start
+    poured = np.array([np.cos(0.75), np.sin(0.75), 0.0, 0.0])  # 86 deg about x
+    qo[10 : 10 + dwell, 3:7] = poured
+    contacts = np.full(n, held)
+    return task, qo, qo.copy(), contacts, t
+
+
+def test_a_milestone_counts_only_while_held_and_for_the_hold_time():
+    """Seen before the fix: a bottle falling through the pour pose counted as poured."""
+    task, qo, expected, held, t = _bottle_log(held=True, dwell=8)  # 0.35 s in the pose, held
+    assert task.milestones(qo, expected, held, t, hold=0.3) == {"lifted": True, "poured": True}
+    task, qo, expected, held, t = _bottle_log(held=False, dwell=8)  # the same motion, not touched
+    assert task.milestones(qo, expected, held, t, hold=0.3) == {"lifted": False, "poured": False}
+    task, qo, expected, held, t = _bottle_log(held=True, dwell=2)  # passes through in 0.05 s
+    assert task.milestones(qo, expected, held, t, hold=0.3)["poured"] is False
+    assert task.milestones(qo, expected, held, t, hold=0.0)["poured"] is True

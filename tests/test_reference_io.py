@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from contactmpc.reference import Reference, ReferenceError
+from contactmpc.reference.data import JOINT_LIMIT_TOLERANCE
 
 JOINTS = [f"wrist_{a}" for a in ("x", "y", "z", "rx", "ry", "rz")] + [
     f"{f}j{i}" for f in ("ff", "mf", "rf", "th") for i in range(4)
@@ -222,3 +223,60 @@ def test_validate_in_memory_and_save_refuses_malformed(tmp_path: Path) -> None:
     _assert_one_line_error(err, "time", tmp_path / "f32.npz")
     assert not (tmp_path / "f32.npz").exists()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_directory_and_renamed_text_file_are_named_for_what_they_are(tmp_path: Path) -> None:
+    with pytest.raises(ReferenceError) as err:
+        Reference.load(tmp_path)
+    _assert_one_line_error(err, "is a directory", tmp_path)
+    text = tmp_path / "notes.npz"
+    text.write_text("not an archive\n")
+    with pytest.raises(ReferenceError) as err:
+        Reference.load(text)
+    _assert_one_line_error(err, "not a zip archive", text)
+    assert "pickle" not in str(err.value)
+
+
+# ------------------------------------------------------------------ against the task and the hand
+def test_reference_is_checked_against_the_task(tmp_path: Path) -> None:
+    path = _write(tmp_path / "ref.npz")
+    ref = Reference.load(path)
+    width = ref.object_qpos.shape[1]
+    good = {"task": ref.task, "object_width": width, "object_bodies": list(ref.object_bodies)}
+    Reference.load(path, JOINTS, LINKS, **good)
+    cases = {
+        "task": {**good, "task": "apple_but_not_this_one"},
+        "object_qpos": {**good, "object_width": width + 1},
+        "object_bodies": {**good, "object_bodies": ["door", "knob"]},
+    }
+    for field, expect in cases.items():
+        with pytest.raises(ReferenceError) as err:
+            Reference.load(path, JOINTS, LINKS, **expect)
+        _assert_one_line_error(err, field, path)
+        assert err.value.field == field
+
+
+def test_joint_values_beyond_the_limits_are_refused(tmp_path: Path) -> None:
+    ref = _reference()
+    ranges = np.tile([-1.0, 1.0], (len(JOINTS), 1))
+    ranges[:6] = [-10.0, 10.0]
+    ref.hand_qpos[:] = 0.0
+    ref.hand_qpos[5, 9] = 1.0 + 0.5 * JOINT_LIMIT_TOLERANCE  # within the tolerance
+    ref.validate(JOINTS, LINKS, joint_ranges=ranges)
+    ref.hand_qpos[7, 9] = 1.2
+    with pytest.raises(ReferenceError) as err:
+        ref.validate(JOINTS, LINKS, joint_ranges=ranges)
+    _assert_one_line_error(err, "hand_qpos")
+    assert JOINTS[9] in str(err.value) and "frame 7" in str(err.value)
+
+
+def test_a_reference_of_another_task_is_refused_by_the_trial_path(tmp_path: Path, scene_for) -> None:
+    """Seen before the fix: a bottle reference given to the apple task ran to a status-ok record."""
+    from contactmpc.reference.source import get_reference
+
+    bottle = scene_for("bottle")
+    path = get_reference(bottle, None).save(tmp_path / "bottle.npz")
+    apple = scene_for("apple", f"task.reference_path={path}")
+    with pytest.raises(ReferenceError) as err:
+        get_reference(apple)
+    _assert_one_line_error(err, "the reference is for task 'bottle', not 'apple'", path)

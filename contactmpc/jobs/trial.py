@@ -37,6 +37,7 @@ def run_trial(
     progress: bool = True,
     failure_gap: Annotated[float, Ge(0)] = 0.3,
     failure_min_expected: Annotated[int, Ge(0)] = 6,
+    milestone_hold: Annotated[float, Ge(0)] = 0.3,
     reference_cache: str | None = "outputs/cache/references",
     video: Annotated[str, OneOf("gif", "mp4")] | None = None,
     video_speed: Annotated[float, Gt(0)] = 1.0,
@@ -63,6 +64,8 @@ def run_trial(
         progress: show a progress bar.
         failure_gap: TTF rule: seconds without any contact (paper 0.3).
         failure_min_expected: TTF rule: needs more than this many expected contacts (paper 6).
+        milestone_hold: a milestone counts when its condition holds, with the hand touching the
+            object, for at least this many seconds in a row.
         reference_cache: directory caching synthesised references (``None`` disables).
         video: ``"gif"`` or ``"mp4"`` to render the trial next to its record (``trial.<ext>``);
             ``None`` renders nothing.
@@ -89,7 +92,7 @@ def run_trial(
             planner.close()
         series = log.arrays()
         wall = time.perf_counter() - loop0  # the closed loop alone, for the real-time factor
-        record.update(summarize(series, trial, wall, failure_gap, failure_min_expected))
+        record.update(summarize(series, trial, wall, failure_gap, failure_min_expected, milestone_hold))
         record["setup_seconds"] = loop0 - wall0
         record["status"] = "ok"
         write_series(out / SERIES_NAME, series)
@@ -110,11 +113,11 @@ def run_trial(
     record["config"] = config
     path = write_json(out / RECORD_NAME, record)
     logger.info(
-        "%s seed %d: ttf %.2f, completed %s %s, object error %.1f mm / %.1f deg / %.3f rad (mean), "
+        "%s seed %d: ttf %s, completed %s %s, object error %.1f mm / %.1f deg / %.3f rad (mean), "
         "%.1f s simulated in %.1f s (real-time factor %.3f)",
         scene.task.name,
         seed,
-        record["ttf"],
+        "none (no contact expected during the trial)" if record["ttf"] is None else f"{record['ttf']:.2f}",
         record["completed"],
         {k[10:]: v for k, v in record.items() if k.startswith("milestone_")},
         1000 * record["object_position_error_mean"],
@@ -127,17 +130,19 @@ def run_trial(
     return path
 
 
-def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected: int) -> dict:
-    """Flat summary fields of a finished trial's log."""
+def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected: int, hold: float) -> dict:
+    """Flat summary fields of a finished trial's log (``hold``: see ``milestone_hold``)."""
     ttf = time_to_failure(series["time"], series["contacts"], series["expected_contacts"], gap, min_expected)
     plan = series["plan_seconds"]
     sim = float(trial.duration)
     final_err = trial.scene.task.layout.error(series["object_qpos"][-1], trial.track.object_qpos[-1])
     task = trial.scene.task
     expected = series["expected_object_qpos"]
-    milestones = task.milestones(series["object_qpos"], expected)
+    held = series["contacts"].any(axis=-1)
+    milestones = task.milestones(series["object_qpos"], expected, held, series["time"], hold)
     return {
         "ttf": ttf.ttf,
+        "ttf_note": ttf.note,
         "completed": all(milestones.values()),
         **{f"milestone_{k}": v for k, v in milestones.items()},
         "failed": ttf.failed,

@@ -39,10 +39,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["QUAT_NORM_TOLERANCE", "Reference", "ReferenceError"]
+__all__ = ["JOINT_LIMIT_TOLERANCE", "QUAT_NORM_TOLERANCE", "Reference", "ReferenceError"]
 
 QUAT_NORM_TOLERANCE = 1e-3
 """Allowed deviation of the object quaternion norm from 1."""
+
+JOINT_LIMIT_TOLERANCE = 0.01
+"""How far (rad or m) a reference's joint value may lie outside the hand's joint limits."""
 
 _FLOAT_FIELDS = ("time", "hand_qpos", "object_qpos", "contact_link_point", "contact_object_point")
 _STRING_ARRAY_FIELDS = ("link_names", "joint_names", "object_bodies")
@@ -134,14 +137,26 @@ class Reference:
         expected_joint_names: Sequence[str] | None = None,
         expected_link_names: Sequence[str] | None = None,
         *,
+        task: str | None = None,
+        object_width: int | None = None,
+        object_bodies: Sequence[str] | None = None,
+        joint_ranges: np.ndarray | None = None,
         path: str | os.PathLike | None = None,
     ) -> None:
         """Check every field; raise on the first problem.
+
+        The keyword expectations come from the scene the reference is for (see
+        :func:`contactmpc.reference.source.get_reference`); each is checked when given.
 
         Args:
             expected_joint_names: the hand's joint names in qpos order, if known (they fix ``J``;
                 otherwise ``J`` is the length of the reference's own ``joint_names``).
             expected_link_names: the hand links the contacts must refer to, in order, if known.
+            task: the task's name; the reference's ``task`` must equal it.
+            object_width: ``n_o`` of the task's object configuration.
+            object_bodies: the task's object bodies, in order.
+            joint_ranges: (J, 2) the hand's joint limits; values beyond them by more than
+                :data:`JOINT_LIMIT_TOLERANCE` are refused.
             path: file name to put in error messages.
 
         Raises:
@@ -173,6 +188,9 @@ class Reference:
             fail("task", f"expected str, got {type(self.task).__name__}")
         if not isinstance(self.meta, dict):
             fail("meta", f"expected dict, got {type(self.meta).__name__}")
+
+        if task is not None and self.task != task:
+            fail("task", f"the reference is for task {self.task!r}, not {task!r}")
 
         # shapes
         time = np.asarray(self.time)
@@ -218,10 +236,33 @@ class Reference:
         self._validate_quaternion(object_qpos, fail)
         self._validate_names("joint_names", self.joint_names, expected_joint_names, fail)
         self._validate_names("link_names", self.link_names, expected_link_names, fail)
+        self._validate_names("object_bodies", self.object_bodies, object_bodies, fail)
+        if object_width is not None and object_qpos.shape[1] != object_width:
+            fail(
+                "object_qpos",
+                f"has {object_qpos.shape[1]} columns, but the task's object configuration has {object_width}",
+            )
+        if joint_ranges is not None:
+            self._validate_limits(np.asarray(joint_ranges, float), fail)
         try:
             json.dumps(self.meta, allow_nan=False)
         except (TypeError, ValueError) as err:
             fail("meta", f"not JSON-serialisable: {err}")
+
+    def _validate_limits(self, ranges: np.ndarray, fail) -> None:
+        hand = np.asarray(self.hand_qpos)
+        excess = np.maximum(ranges[:, 0] - hand, hand - ranges[:, 1])
+        bad = excess > JOINT_LIMIT_TOLERANCE
+        if bad.any():
+            frame, joint = (int(i) for i in np.argwhere(bad)[0])
+            name = str(np.asarray(self.joint_names)[joint])
+            lo, hi = ranges[joint]
+            fail(
+                "hand_qpos",
+                f"joint {name!r} = {hand[frame, joint]:.4g} at frame {frame} is outside its limits "
+                f"[{lo:.4g}, {hi:.4g}] by {excess[frame, joint]:.3g} (tolerance {JOINT_LIMIT_TOLERANCE}; "
+                f"{int(bad.sum())} values in all)",
+            )
 
     def _validate_quaternion(self, object_qpos: np.ndarray, fail) -> None:
         index = self.meta.get("object_quat_index")
@@ -303,6 +344,7 @@ class Reference:
         path: str | os.PathLike,
         joint_names: Sequence[str] | None = None,
         link_names: Sequence[str] | None = None,
+        **expected: Any,
     ) -> Reference:
         """Read and validate a reference ``.npz`` (never unpickles).
 
@@ -310,6 +352,8 @@ class Reference:
             path: the file.
             joint_names: expected hand joint names (qpos order), checked when given.
             link_names: expected hand link names, checked when given.
+            **expected: the other expectations of :meth:`validate` (task, object_width,
+                object_bodies, joint_ranges).
 
         Returns:
             The reference, arrays exactly as stored.
@@ -319,8 +363,15 @@ class Reference:
                 malformed (one line, naming the file and the field).
         """
         path = Path(path)
+        if path.is_dir():
+            raise ReferenceError("is a directory, not a reference file", path=path)
         if not path.is_file():
             raise ReferenceError("file not found", path=path)
+        if not zipfile.is_zipfile(path):
+            with open(path, "rb") as fh:
+                magic = fh.read(6)
+            what = "a single .npy array" if magic == b"\x93NUMPY" else "not a zip archive of .npy arrays"
+            raise ReferenceError(f"not an .npz archive ({what})", path=path)
         try:
             archive = np.load(path, allow_pickle=False)
         except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
@@ -355,5 +406,5 @@ class Reference:
             )
         values["meta"] = meta
         ref = cls(**values)
-        ref.validate(joint_names, link_names, path=path)
+        ref.validate(joint_names, link_names, path=path, **expected)
         return ref

@@ -44,7 +44,8 @@ def _fingerprint(scene: Scene) -> str:
 
 
 def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Reference:
-    """The task's reference, validated against the hand's joint and link names.
+    """The task's reference, validated against the scene: the hand's joint and link names and joint
+    limits, the task's name, object-configuration width and object bodies.
 
     A task with ``reference_path`` loads that file (a bad file raises
     :class:`~contactmpc.reference.data.ReferenceError` naming the field). Otherwise the task's
@@ -59,9 +60,16 @@ def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Referenc
         SynthesisError: the task has neither a reference file nor a demonstration design, or the
             synthesised reference fails a gate.
     """
-    names = {"joint_names": scene.hand.joint_names, "link_names": scene.hand.link_names}
-    if scene.task.reference_path:
-        return Reference.load(scene.task.reference_path, **names)
+    task, hand = scene.task, scene.hand
+    names = (hand.joint_names, hand.link_names)
+    expect = {
+        "task": task.name,
+        "object_width": task.layout.width,
+        "object_bodies": task.object_bodies,
+        "joint_ranges": hand.joint_ranges,
+    }
+    if task.reference_path:
+        return Reference.load(task.reference_path, *names, **expect)
     demo = scene.task.demonstration
     if demo is None:
         raise SynthesisError(
@@ -71,9 +79,9 @@ def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Referenc
     if cache_dir is not None:
         path = Path(cache_dir) / f"{scene.task.name}_{_fingerprint(scene)}.npz"
         if path.exists():
-            return Reference.load(path, **names)
+            return Reference.load(path, *names, **expect)
     ref = synthesize(scene, demo)
-    ref.validate(scene.hand.joint_names, scene.hand.link_names)
+    ref.validate(*names, **expect)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         ref.save(path)

@@ -73,10 +73,8 @@ class AppleTask(Task):
     LIFT = 0.05  # m above the table to count as lifted
     HANDOFF_TOLERANCE = 0.03  # m from the reference's final (hand-off) position
 
-    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
-        """Lifted off the table, then at the reference's hand-off position at the end."""
-        return {
-            "lifted": bool(np.max(self.lift(qo)) > self.LIFT),
-            "handed_off": bool(np.linalg.norm(qo[-1, :3] - expected[-1, :3]) < self.HANDOFF_TOLERANCE)
-            and bool(self.lift(qo)[-1] > self.LIFT),
-        }
+    def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
+        """Lifted off the table; lifted and at the reference's final (hand-off) position."""
+        lifted = self.lift(qo) > self.LIFT
+        at_handoff = np.linalg.norm(qo[:, :3] - expected[-1, :3], axis=-1) < self.HANDOFF_TOLERANCE
+        return {"lifted": lifted, "handed_off": lifted & at_handoff}

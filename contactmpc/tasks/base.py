@@ -53,6 +53,25 @@ class ObjectError:
     articulation: np.ndarray
 
 
+def sustained(mask: np.ndarray, time: np.ndarray, duration: float) -> bool:
+    """Whether ``mask`` is true on consecutive samples spanning at least ``duration`` seconds.
+
+    Args:
+        mask: (N,) bool.
+        time: (N,) increasing sample times (s).
+        duration: minimum span (s); 0 accepts a single sample.
+    """
+    start = None
+    for i, ok in enumerate(np.asarray(mask, bool)):
+        if not ok:
+            start = None
+            continue
+        start = i if start is None else start
+        if time[i] - time[start] >= duration - 1e-9:
+            return True
+    return False
+
+
 def quat_angle(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
     """Geodesic angle between unit quaternions.
 
@@ -333,21 +352,38 @@ class Task:
             )
 
     # --- completion -------------------------------------------------------------------------
-    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
-        """The task's milestones, judged on a trial's object trajectory.
+    def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
+        """The task's milestone conditions, per logged sample.
 
         Args:
             qo: (N, n_o) the plant's object configuration over the trial.
             expected: (N, n_o) the reference's object configuration at the same times.
 
         Returns:
-            Milestone name -> reached. The task is completed when all are reached.
+            Milestone name -> (N,) bool, whether the object satisfies it at that sample.
         """
         raise NotImplementedError
 
-    def completed(self, qo: np.ndarray, expected: np.ndarray) -> bool:
-        """Whether every milestone of :meth:`milestones` was reached."""
-        return all(self.milestones(qo, expected).values())
+    def milestones(
+        self, qo: np.ndarray, expected: np.ndarray, held: np.ndarray, time: np.ndarray, hold: float
+    ) -> dict[str, bool]:
+        """Which milestones a trial reached: each condition of :meth:`conditions` must hold *while the
+        hand touches the object* for at least ``hold`` seconds in a row (one rule for every task, so an
+        object falling through a goal pose, or touching it for an instant, does not count).
+
+        Args:
+            qo: (N, n_o) the plant's object configuration over the trial.
+            expected: (N, n_o) the reference's object configuration at the same times.
+            held: (N,) bool, whether any hand link touches the object.
+            time: (N,) sample times (s).
+            hold: minimum duration (s).
+
+        Returns:
+            Milestone name -> reached. The task is completed when all are reached.
+        """
+        return {
+            name: sustained(ok & held, time, hold) for name, ok in self.conditions(qo, expected).items()
+        }
 
     def lift(self, qo: np.ndarray) -> np.ndarray:
         """(N,) height of the (first) free body above its first position (m)."""

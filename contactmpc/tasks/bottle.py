@@ -87,11 +87,8 @@ class BottleTask(Task):
     POUR_TILT = 1.2  # rad (~70 deg) from upright to count as pouring
     POUR_TOLERANCE = 0.05  # m from the reference's position while pouring (held, not knocked over)
 
-    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
-        """Lifted off the table, and tilted to pour while lifted and where the reference pours."""
+    def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
+        """Lifted off the table; tilted to pour while lifted and where the reference pours."""
         lifted = self.lift(qo) > self.LIFT
         near = np.linalg.norm(qo[:, :3] - expected[:, :3], axis=-1) < self.POUR_TOLERANCE
-        return {
-            "lifted": bool(lifted.any()),
-            "poured": bool(np.any(lifted & near & (self.tilt(qo) > self.POUR_TILT))),
-        }
+        return {"lifted": lifted, "poured": lifted & near & (self.tilt(qo) > self.POUR_TILT)}

@@ -234,9 +234,6 @@ class DoorknobTask(Task):
 
     OPEN = 0.3  # rad the door must swing towards the hand to count as pulled open
 
-    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
-        """Knob twisted past the unlock angle, and the door pulled open."""
-        return {
-            "twisted": bool(np.max(qo[:, 1]) >= self.unlock_angle),
-            "opened": bool(np.min(qo[:, 0]) <= -self.OPEN),
-        }
+    def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
+        """Knob twisted past the unlock angle; the door pulled open (columns: door, knob)."""
+        return {"twisted": qo[:, 1] >= self.unlock_angle, "opened": qo[:, 0] <= -self.OPEN}

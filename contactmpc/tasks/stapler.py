@@ -123,10 +123,8 @@ class StaplerTask(Task):
     LIFT = 0.04  # m above the table to count as lifted
     PRESSED = 0.05  # rad: the arm's angle when pressed shut
 
-    def milestones(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, bool]:
-        """Lifted off the table, and the top arm pressed shut while lifted."""
+    def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
+        """Lifted off the table; the top arm pressed shut while lifted."""
         lifted = self.lift(qo) > self.LIFT
-        return {
-            "lifted": bool(lifted.any()),
-            "pressed": bool(np.any(lifted & (qo[:, 7] < self.PRESSED))),
-        }
+        arm = qo[:, self.layout.articulation_columns[0]]
+        return {"lifted": lifted, "pressed": lifted & (arm < self.PRESSED)}
