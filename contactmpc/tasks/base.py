@@ -12,10 +12,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Annotated
 
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
+
+from contactmpc.validate import Gt, checked
 
 JOINT_WIDTH = {"free": 7, "hinge": 1, "slide": 1}  # entries in qpos
 DOF_WIDTH = {"free": 6, "hinge": 1, "slide": 1}  # entries in qvel
@@ -254,10 +257,11 @@ class Task:
     # Default free camera for renders: see contactmpc.render.make_camera.
     view: dict = {"lookat": (0.0, 0.0, 0.06), "distance": 0.75, "azimuth": 135.0, "elevation": -25.0}
 
+    @checked
     def __init__(
         self,
         hand_home: list[float] | np.ndarray,
-        time_scale: float = 5.0,
+        time_scale: Annotated[float, Gt(0)] = 5.0,
         reference_path: str | None = None,
         demonstration: object | None = None,
     ) -> None:
@@ -266,8 +270,6 @@ class Task:
             raise ValueError(
                 f"task {self.name}: hand_home must be a flat list, got shape {self.hand_home.shape}"
             )
-        if time_scale <= 0:
-            raise ValueError(f"task {self.name}: time_scale must be positive, got {time_scale}")
         self.time_scale = float(time_scale)
         self.reference_path = reference_path
         self.demonstration = demonstration
