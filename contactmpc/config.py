@@ -210,7 +210,7 @@ class Config:
     experiment: Any = None
     scene: SceneConf = field(default_factory=SceneConf)
     seed: int = 0
-    resume: bool = True
+    resume: Any = True  # true | false | overwrite (launch.py checks the value)
     duration: float | None = None
     output_dir: str = "${hydra:runtime.output_dir}"
 
