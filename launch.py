@@ -7,34 +7,64 @@
     python launch.py -m task=apple,bottle seed=0,1,2   # a multirun sweep
 
 Errors that come from bad input (config, reference files, scenes) are printed as one line naming the
-problem, and the process exits with status 1.
+problem, and the process exits with status 1. Ctrl-C leaves the trial's record (status
+``interrupted``), prints one line and exits with status 130. A multirun ends with one summary line
+(:class:`SweepSummary`) and a non-zero exit status unless every job finished.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import functools
+import hashlib
 import json
 import logging
+import math
 import os
+import re
+import shutil
+import signal
 import sys
+import tempfile
+from collections import Counter
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import hydra  # noqa: E402
 from hydra.core.config_store import ConfigStore  # noqa: E402
 from hydra.core.hydra_config import HydraConfig  # noqa: E402
+from hydra.core.utils import JobStatus  # noqa: E402
+from hydra.experimental.callback import Callback  # noqa: E402
 from hydra.types import RunMode  # noqa: E402
-from hydra.utils import instantiate  # noqa: E402
+from hydra.utils import get_method, instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
 from contactmpc.config import Config, check_config, member_schemas  # noqa: E402
-from contactmpc.records import RECORD_NAME  # noqa: E402
+from contactmpc.jobs.trial import failure_status  # noqa: E402
+from contactmpc.records import RECORD_NAME, write_json  # noqa: E402
 
 CONF_DIR = Path(__file__).resolve().parent / "conf"
 
 LABELS = ("task", "hand", "cost", "sampler", "planner", "variant", "preset", "experiment")
 FINISHED = ("ok", "diverged")
+RESUME = (True, False, "overwrite")
+"""Values of ``resume``: skip a job whose finished record holds the same trial (``true``), run it
+again (``false``), or run it even over a finished record of a different trial (``overwrite``)."""
+
+NOT_THE_TRIAL = ("output_dir", "resume", "job.progress", "job.reference_cache")
+"""Config keys (with everything under them) that do not change a trial: where it is written, whether it
+resumes, its progress bar, where references are cached. Resume compares every other key."""
+
+LOCK_NAME = ".lock"
+"""In a job's directory: locked (``flock``) while a process runs the job."""
+STATE_DIR = ".contactmpc"
+"""In a sweep's directory: one folder per running multirun with the outcomes of its jobs."""
+SWEEP_STATE_ENV = "CONTACTMPC_SWEEP_STATE"
+"""Set in a multirun job's process to its sweep's state folder (see :class:`SweepSummary`)."""
 
 log = logging.getLogger("contactmpc")
 
@@ -52,19 +82,51 @@ def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:
 
 # (group, name, schema) triples stored in Hydra's ConfigStore: the root schema, and one schema per
 # member, generated from the signature of what it builds (contactmpc.config.schema). A member's YAML
-# names its target and lists "<member>_schema" in its defaults, so a typo in a key fails at compose
-# time and every constructor parameter is settable; adding a member needs no other registration.
-SCHEMAS = ((None, "config_schema", Config), *member_schemas(conf_members()))
+# names its target and lists its schema, "/<group>_<member>_schema", in its defaults, so a typo in a key
+# fails at compose time and every constructor parameter is settable; adding a member needs no other
+# registration. The member schemas live at the root of the ConfigStore, not in their group: they are
+# no choices of the group (`--help` and tab completion do not list them).
+SCHEMAS = (
+    (None, "config_schema", Config),
+    *((group, f"/{group}_{name}", cls) for group, name, cls in member_schemas(conf_members())),
+)
 
 
 def register_configs() -> None:
-    """Store :data:`SCHEMAS` in Hydra's ConfigStore (idempotent)."""
+    """Store :data:`SCHEMAS` in Hydra's ConfigStore (idempotent); a name ``/x`` is stored at the root."""
     cs = ConfigStore.instance()
     for group, name, node in SCHEMAS:
-        cs.store(group=group, name=name, node=node)
+        if name.startswith("/"):
+            cs.store(name=name[1:], node=node)
+        else:
+            cs.store(group=group, name=name, node=node)
 
 
 register_configs()
+
+
+_FOLDERS = re.compile(r"(?<==)[^,]*/")  # the folders of a path value: "=/data/refs/" in "k=/data/refs/a.npz"
+_UNSAFE = re.compile(r"[^A-Za-z0-9._,=+-]")
+
+
+def safe_dirname(name: str, max_length: int = 200) -> str:
+    """``name`` as one flat, portable directory name (the resolver of ``hydra.sweep.subdir``).
+
+    A path value keeps its file name only (``task.reference_path=/data/apple.npz`` ->
+    ``task.reference_path=apple.npz``), other characters than ASCII letters, digits and ``. _ , = + -``
+    become ``_``, and a name longer than ``max_length`` is cut. Whenever the name changed, 8 hex digits
+    of the original's SHA-1 are appended, so different overrides keep different directories. A safe,
+    short name (``seed=0,task=apple``) is returned as it is.
+    """
+    safe = _UNSAFE.sub("_", _FOLDERS.sub("", name))
+    if safe == name and len(name) <= max_length:
+        return name
+    return f"{safe[: max_length - 9]}-{hashlib.sha1(name.encode()).hexdigest()[:8]}"
+
+
+# Registered on import: a multirun job that runs in another process (joblib, submitit) imports this
+# module when it unpickles the SweepSummary callback, before its directory is resolved.
+OmegaConf.register_new_resolver("safe_dirname", safe_dirname, replace=True)
 
 
 def build_scene(cfg: DictConfig):
@@ -74,47 +136,316 @@ def build_scene(cfg: DictConfig):
     return instantiate(cfg.scene)(hand=hand, task=task)
 
 
-def existing_record(output_dir: Path) -> dict | None:
-    """The finished record in ``output_dir`` (status ok or diverged), if any: such jobs are skipped."""
-    path = output_dir / RECORD_NAME
-    if not path.exists():
-        return None
+# ------------------------------------------------------------------------------------------ resume
+
+
+def read_record(output_dir: Path) -> dict | None:
+    """The record in ``output_dir``, if there is a readable one."""
     try:
-        record = json.loads(path.read_text())
+        record = json.loads((output_dir / RECORD_NAME).read_text())
     except (OSError, json.JSONDecodeError):
         return None
-    return record if record.get("status") in FINISHED else None
+    return record if isinstance(record, dict) else None
 
 
-@hydra.main(version_base="1.3", config_path="conf", config_name="config")
-def main(cfg: DictConfig) -> object:
-    hc = HydraConfig.get()
-    multirun = hc.mode == RunMode.MULTIRUN
-    output_dir = Path(cfg.output_dir)
-    done = existing_record(output_dir) if cfg.resume else None
-    if done is not None:
-        print(f"[contactmpc] skipped (record exists, status {done['status']}): {output_dir / RECORD_NAME}")
-        return str(output_dir / RECORD_NAME)
-    labels = {g: hc.runtime.choices.get(g) for g in LABELS}
+def existing_record(output_dir: Path) -> dict | None:
+    """The finished record in ``output_dir`` (status ok or diverged), if any."""
+    record = read_record(output_dir)
+    return record if record is not None and record.get("status") in FINISHED else None
+
+
+_ABSENT = object()
+
+
+def _plain(value: Any) -> Any:
+    """A config value as its record stores it (JSON: tuples as lists, NaN and infinities as null)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _flatten(node: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(node, dict) and node:
+        return {k: v for key, value in node.items() for k, v in _flatten(value, f"{prefix}{key}.").items()}
+    return {prefix[:-1]: node}
+
+
+def _show(value: Any, width: int = 40) -> str:
+    """A value in a line: a long string by its end (a dotted path's class, a file's name), else its start."""
+    if isinstance(value, str):
+        return value if len(value) <= width else "..." + value[3 - width :]
+    text = "<absent>" if value is _ABSENT else json.dumps(value)
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def config_differences(stored: dict | None, new: dict) -> list[str]:
+    """Where two resolved configs describe different trials: ``"key: new != stored"`` per dotted key.
+
+    Keys in :data:`NOT_THE_TRIAL` are ignored; ``_target_`` keys come first, then the others in order.
+    A record without a config differs from every config.
+    """
+    if not isinstance(stored, dict):
+        return ["config: not in the record"]
+    a, b = _flatten(_plain(stored)), _flatten(_plain(new))
+
+    def compared(key: str) -> bool:
+        return not any(key == k or key.startswith(k + ".") for k in NOT_THE_TRIAL)
+
+    keys = sorted(filter(compared, a.keys() | b.keys()), key=lambda k: (not k.endswith("_target_"), k))
+    return [
+        f"{k}: {_show(b.get(k, _ABSENT))} != {_show(a.get(k, _ABSENT))}"
+        for k in keys
+        if a.get(k, _ABSENT) != b.get(k, _ABSENT)
+    ]
+
+
+def resume_decision(output_dir: Path, config: dict, resume: bool | str) -> tuple[str, str | None]:
+    """What to do with a job given the record its directory may hold already.
+
+    Returns:
+        ``("run", None)``; ``("skip", line)``: a finished record of the same trial and ``resume`` is
+        true; or ``("refuse", line)``: a finished record of a different trial, which only
+        ``resume=overwrite`` replaces. Unfinished records (error, interrupted) are always run again.
+    """
+    record = existing_record(output_dir)
+    path = output_dir / RECORD_NAME
+    if record is None or resume == "overwrite":
+        return "run", None
+    differences = config_differences(record.get("config"), config)
+    if differences:
+        more = len(differences) - 3
+        shown = ", ".join(differences[:3]) + (f", ... {more} more" if more > 0 else "")
+        return "refuse", (
+            f"contactmpc: error: {path} holds a different trial ({shown}); "
+            "re-run with resume=overwrite or use another directory"
+        )
+    if resume is True:
+        return "skip", f"[contactmpc] skipped (record exists, status {record['status']}): {path}"
+    return "run", None
+
+
+@contextlib.contextmanager
+def job_lock(output_dir: Path) -> Iterator[bool]:
+    """Lock ``output_dir/.lock`` (``flock``, not blocking) while the job runs; yields whether it got it."""
+    output_dir.mkdir(parents=True, exist_ok=True)
+    with open(output_dir / LOCK_NAME, "a") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            yield False
+            return
+        try:
+            yield True
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+# --------------------------------------------------------------------------------------------- jobs
+
+
+def _one_line(err: BaseException) -> str:
+    message = " ".join(str(err).split())
+    return f"{type(err).__name__}: {message}" if message else type(err).__name__
+
+
+def _sweep_state() -> Path | None:
+    state = os.environ.get(SWEEP_STATE_ENV)
+    return Path(state) if state else None
+
+
+def _resolved(cfg: DictConfig) -> dict:
     try:
-        check_config(OmegaConf.to_container(cfg, resolve=True))  # nonsense values fail before any work
+        return OmegaConf.to_container(cfg, resolve=True)
+    except Exception:  # an interpolation that fails is the job's error to report; keep what there is
+        return OmegaConf.to_container(cfg, resolve=False)
+
+
+def run_job(cfg: DictConfig, labels: dict) -> dict:
+    """Run the job of the composed config in its output directory, under the directory's lock.
+
+    Returns:
+        The outcome: ``{"status": ...}``, one of ``ok``, ``diverged``, ``error``, ``interrupted`` (the
+        job ran), ``skipped`` (a finished record of the same trial), ``refused`` (a finished record of a
+        different trial), ``busy`` (another process holds the directory's lock) or ``not_started``
+        (the sweep was interrupted before this job began); ``record`` where the job wrote one.
+    """
+    output_dir = Path(cfg.output_dir)
+    state = _sweep_state()
+    if state is not None and (state / "STOP").exists():
+        return {"status": "not_started"}
+    if cfg.resume not in RESUME or not isinstance(cfg.resume, bool | str):
+        print(f"contactmpc: error: resume={cfg.resume}: expected true, false or overwrite", file=sys.stderr)
+        return {"status": "error"}
+    config = _resolved(cfg)
+    with job_lock(output_dir) as locked:
+        if not locked:
+            print(f"[contactmpc] skipped (in progress in another process): {output_dir}")
+            return {"status": "busy"}
+        action, line = resume_decision(output_dir, config, cfg.resume)
+        if action != "run":
+            print(line, file=sys.stderr if action == "refuse" else sys.stdout)
+            return {"status": "skipped" if action == "skip" else "refused"}
+        return _run(cfg, output_dir, config, labels)
+
+
+def _run(cfg: DictConfig, output_dir: Path, config: dict, labels: dict) -> dict:
+    job = None
+    try:
+        # Nonsense values fail first, before any work (contactmpc.validate); then the job's objects
+        # (sampler, cost, planner) are built here, inside the guard: a job that cannot be built, or
+        # whose config is refused, still leaves the record its function would have written (its
+        # `record_failure`).
+        check_config(config)
         job = instantiate(cfg.job)
         result = job(
             make_scene=functools.partial(build_scene, cfg),
             output_dir=output_dir,
             seed=cfg.seed,
-            config=OmegaConf.to_container(cfg, resolve=True),
+            config=config,
             labels=labels,
         )
-    except Exception as err:
-        # One line that names the problem; the trial's record (if it got that far) says the same.
-        print(f"contactmpc: error: {type(err).__name__}: {' '.join(str(err).split())}", file=sys.stderr)
-        if multirun:
-            return None  # the sweep goes on with its other jobs
-        sys.exit(1)
+    except (Exception, KeyboardInterrupt) as err:
+        if job is None and (record_failure := _record_failure(cfg.job._target_)) is not None:
+            record_failure(output_dir, cfg.seed, err, config=config, labels=labels)
+        record = output_dir / RECORD_NAME
+        outcome: dict[str, Any] = {"status": failure_status(err)}
+        if record.exists():
+            outcome["record"] = str(record)
+        if isinstance(err, KeyboardInterrupt):
+            state = _sweep_state()
+            if state is not None:  # no new job of this sweep starts
+                (state / "STOP").touch()
+            where = f"; record: {record}" if record.exists() else ""
+            print(f"contactmpc: interrupted{where}", file=sys.stderr)
+        else:
+            # One line that names the problem; the trial's record (if it got that far) says the same.
+            print(f"contactmpc: error: {_one_line(err)}", file=sys.stderr)
+        return outcome
     print(f"[contactmpc] {cfg.job._target_.rsplit('.', 1)[-1]}: wrote {result}")
-    return str(result)
+    return {"status": "ok", "record": str(result)}
+
+
+def _record_failure(target: str) -> Any:
+    """The ``record_failure(output_dir, seed, error, config, labels)`` of a job function that writes a
+    record (:func:`contactmpc.jobs.trial.record_failure`), or ``None``."""
+    try:
+        return getattr(get_method(target), "record_failure", None)
+    except Exception:  # the target itself cannot be found: that is the error to report
+        return None
+
+
+@hydra.main(version_base="1.3", config_path="conf", config_name="config")
+def main(cfg: DictConfig) -> dict:
+    hc = HydraConfig.get()
+    outcome = run_job(cfg, {g: hc.runtime.choices.get(g) for g in LABELS})
+    if hc.mode != RunMode.MULTIRUN and outcome["status"] not in ("ok", "skipped"):
+        sys.exit(130 if outcome["status"] == "interrupted" else 1)
+    return outcome  # a multirun goes on with its other jobs; SweepSummary counts the outcomes
+
+
+# ------------------------------------------------------------------------------------------- sweeps
+
+
+class SweepSummary(Callback):
+    """Counts a multirun's job outcomes, prints one summary line and sets the exit status.
+
+    Registered in ``conf/config.yaml`` (``hydra.callbacks``). Jobs may run in other processes (joblib,
+    submitit), so each job's outcome is a file in ``<sweep dir>/.contactmpc/<this multirun>/``, written
+    where the job ran (``on_job_start``: ``unfinished``; ``on_job_end``: what :func:`main` returned) and
+    read here at the end. The exit status is 130 after Ctrl-C, else 1 if any job failed, was refused,
+    ran elsewhere or left no outcome, else 0.
+
+    Ctrl-C during a multirun whose jobs run in other processes stops it gently: the jobs running (which
+    get the same Ctrl-C from the terminal) write their records with status ``interrupted``, no new job
+    starts, and the summary follows; a second Ctrl-C aborts at once.
+    """
+
+    COUNTED = ("ok", "diverged", "error", "interrupted")
+    OTHERS = {
+        "refused": "refused (a different trial's record)",
+        "busy": "running in another process",
+        "not_started": "not started (interrupted)",
+        "unfinished": "left no outcome",
+    }
+
+    def __init__(self) -> None:
+        self.state: Path | None = None
+        self.sweep_dir: Path | None = None
+        self.in_job = False  # a job runs in this process (the basic launcher)
+        self.stopping = False
+        self._sigint: Any = None
+
+    def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        self.sweep_dir = Path(str(config.hydra.sweep.dir)).absolute()
+        (self.sweep_dir / STATE_DIR).mkdir(parents=True, exist_ok=True)
+        self.state = Path(tempfile.mkdtemp(prefix="multirun-", dir=self.sweep_dir / STATE_DIR))
+        with contextlib.suppress(ValueError):  # not the main thread: keep Python's handler
+            self._sigint = signal.signal(signal.SIGINT, self._on_sigint)
+
+    def _on_sigint(self, signum: int, frame: Any) -> None:
+        if self.in_job or self.stopping:
+            raise KeyboardInterrupt
+        self.stopping = True
+        if self.state is not None:
+            (self.state / "STOP").touch()
+        print(
+            "[contactmpc] stopping the sweep: running jobs end as interrupted, no new job starts "
+            "(Ctrl-C again to abort)",
+            file=sys.stderr,
+        )
+
+    def on_job_start(self, config: DictConfig, **kwargs: Any) -> None:
+        if self.state is None:
+            return
+        self.in_job = True
+        os.environ[SWEEP_STATE_ENV] = str(self.state)
+        write_json(self._outcome_path(config), {"status": "unfinished"})
+
+    def on_job_end(self, config: DictConfig, job_return: Any, **kwargs: Any) -> None:
+        if self.state is None:
+            return
+        self.in_job = False
+        value = job_return._return_value
+        if job_return.status == JobStatus.COMPLETED and isinstance(value, dict):
+            outcome = value
+        else:
+            error = _one_line(value) if isinstance(value, BaseException) else None
+            outcome = {"status": "error", "error": error}
+        outcome["dir"] = str(config.hydra.runtime.output_dir)
+        write_json(self._outcome_path(config), outcome)
+
+    def _outcome_path(self, config: DictConfig) -> Path:
+        return self.state / f"job{config.hydra.job.num}.json"
+
+    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
+        if self._sigint is not None:
+            signal.signal(signal.SIGINT, self._sigint)
+        if self.state is None:
+            return
+        os.environ.pop(SWEEP_STATE_ENV, None)
+        outcomes = [json.loads(p.read_text()) for p in sorted(self.state.glob("job*.json"))]
+        shutil.rmtree(self.state, ignore_errors=True)
+        with contextlib.suppress(OSError):
+            self.state.parent.rmdir()  # the last multirun on this sweep removes .contactmpc/
+        counts = Counter(o.get("status") for o in outcomes)
+        line = " / ".join(f"{counts[s]} {s}" for s in self.COUNTED)
+        line += f", {counts['skipped']} skipped"
+        line += "".join(f", {counts[s]} {what}" for s, what in self.OTHERS.items() if counts[s])
+        print(f"[contactmpc] sweep {self.sweep_dir}: {len(outcomes)} jobs: {line}")
+        # Hydra passes no job results to the caller of main(): the exit status is set from here.
+        if self.stopping or counts["interrupted"] or counts["not_started"]:
+            raise SystemExit(130)
+        if any(status not in ("ok", "diverged", "skipped") for status in counts):
+            raise SystemExit(1)
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except KeyboardInterrupt:  # outside a job (a job's Ctrl-C is handled in run_job)
+        print("contactmpc: interrupted", file=sys.stderr)
+        sys.exit(130)

@@ -202,7 +202,7 @@ class Config:
     experiment: Any = None
     scene: SceneConf = field(default_factory=SceneConf)
     seed: Annotated[int, Ge(0)] = 0
-    resume: bool = True
+    resume: Any = True  # true | false | overwrite (launch.py checks the value)
     duration: Annotated[float, Gt(0)] | None = None
     output_dir: str = "${hydra:runtime.output_dir}"
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import json
 import subprocess
 import sys
 from typing import Annotated
@@ -138,13 +139,16 @@ def _launch(*args: str) -> subprocess.CompletedProcess:
         ("task.time_scale=inf", "task.time_scale must be finite, got inf"),
     ],
 )
-def test_launch_refuses_nonsense_in_one_line_and_writes_no_record(override, line, tmp_path):
+def test_launch_refuses_nonsense_in_one_line_before_any_work(override, line, tmp_path):
+    """One line naming the key; the trial's record says the same (status error) and nothing ran."""
     run = tmp_path / "run"
     r = _launch(override, f"hydra.run.dir={run}", "job.reference_cache=null")
     assert r.returncode == 1
     errors = [x for x in r.stderr.splitlines() if x.startswith("contactmpc: error:")]
     assert errors == [f"contactmpc: error: ConfigError: {line}"], r.stderr
-    assert not (run / "trial.json").exists() and not (run / "timeseries.npz").exists()
+    record = json.loads((run / "trial.json").read_text())
+    assert record["status"] == "error" and record["error"] == f"ConfigError: {line}"
+    assert "ttf" not in record and not (run / "timeseries.npz").exists()
 
 
 # ----------------------------------------------------------------------------- the mechanism itself

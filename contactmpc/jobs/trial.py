@@ -46,10 +46,12 @@ def run_trial(
 ) -> Path:
     """Run one closed-loop trial and write its record (``trial.json`` + ``timeseries.npz``).
 
-    The record is written whatever happens once the trial has started: a trial that raises gets
-    ``status`` ``"error"`` (or ``"diverged"``) and the reason, and the exception is re-raised after the
-    record is on disk. An argument its declaration does not accept (``Annotated``, see
-    :mod:`contactmpc.validate`) raises before anything is done or written.
+    The record is written whatever happens: a trial that raises gets ``status`` ``"error"`` (or
+    ``"diverged"``, or ``"interrupted"`` for Ctrl-C) and the reason, and the exception is re-raised
+    after the record is on disk. A trial whose arguments cannot be built at all gets its record from
+    :func:`record_failure` (``launch.py`` calls it as ``run_trial.record_failure``). An argument its
+    declaration does not accept (``Annotated``, see :mod:`contactmpc.validate`) raises before anything
+    is done or written.
 
     Args:
         make_scene: builds the scene (inside the record's guard, so a scene that fails to compile
@@ -77,9 +79,7 @@ def run_trial(
         Path of ``trial.json``.
     """
     out = Path(output_dir)
-    record: dict = {"schema": 1, **(labels or {}), "seed": int(seed), "status": "running"}
-    record["versions"] = versions()
-    record["git_revision"] = git_revision()
+    record = _new_record(seed, labels)
     wall0 = time.perf_counter()
     try:
         scene = make_scene()
@@ -102,13 +102,8 @@ def run_trial(
             record["video"] = str(
                 render_trial_video(scene, series, trial.track, out / f"trial.{video}", speed=video_speed)
             )
-    except Exception as err:
-        record["status"] = "diverged" if isinstance(err, PlantDiverged) else "error"
-        record["error"] = f"{type(err).__name__}: {' '.join(str(err).split())}"
-        record["traceback"] = traceback.format_exc(limit=8)
-        record["wall_seconds"] = time.perf_counter() - wall0
-        record["config"] = config
-        write_json(out / RECORD_NAME, record)
+    except (Exception, KeyboardInterrupt) as err:
+        _write_failure(out, record, err, time.perf_counter() - wall0, config)
         raise
     record["config"] = config
     path = write_json(out / RECORD_NAME, record)
@@ -128,6 +123,54 @@ def run_trial(
         record["real_time_factor"],
     )
     return path
+
+
+def record_failure(
+    output_dir: str | Path,
+    seed: int,
+    error: BaseException,
+    config: dict | None = None,
+    labels: dict | None = None,
+) -> Path:
+    """Write the record of a trial that could not start: its sampler, cost or planner failed to build.
+
+    The record has the fields of a trial that failed while running (status ``error``, or
+    ``interrupted`` for a ``KeyboardInterrupt``; the one-line reason, the traceback, labels, seed,
+    versions and the config), so a sweep's analysis counts it like any other failed trial.
+
+    Returns:
+        Path of ``trial.json``.
+    """
+    return _write_failure(Path(output_dir), _new_record(seed, labels), error, None, config)
+
+
+run_trial.record_failure = record_failure
+
+
+def failure_status(error: BaseException) -> str:
+    """The record ``status`` of a trial (or any job) that raised ``error``."""
+    if isinstance(error, KeyboardInterrupt):
+        return "interrupted"
+    return "diverged" if isinstance(error, PlantDiverged) else "error"
+
+
+def _new_record(seed: int, labels: dict | None) -> dict:
+    record: dict = {"schema": 1, **(labels or {}), "seed": int(seed), "status": "running"}
+    record["versions"] = versions()
+    record["git_revision"] = git_revision()
+    return record
+
+
+def _write_failure(
+    out: Path, record: dict, err: BaseException, wall_seconds: float | None, config: dict | None
+) -> Path:
+    record["status"] = failure_status(err)
+    message = " ".join(str(err).split())
+    record["error"] = f"{type(err).__name__}: {message}" if message else type(err).__name__
+    record["traceback"] = "".join(traceback.format_exception(err, limit=8))
+    record["wall_seconds"] = wall_seconds
+    record["config"] = config
+    return write_json(out / RECORD_NAME, record)
 
 
 def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected: int, hold: float) -> dict:
