@@ -88,7 +88,7 @@ def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:
 # no choices of the group (`--help` and tab completion do not list them).
 SCHEMAS = (
     (None, "config_schema", Config),
-    *((group, f"/{group}_{name}", cls) for group, name, cls in member_schemas(conf_members())),
+    *member_schemas(conf_members()),
 )
 
 

@@ -277,7 +277,10 @@ def member_schemas(members: Iterable[tuple[str, str, str]]) -> tuple[tuple[str, 
             ``_target_``.
 
     Returns:
-        ``(group, "<member>_schema", schema)`` triples (:func:`schema_for`), the name a member's
-        defaults list uses.
+        ``(group, "/<group>_<member>_schema", schema)`` triples (:func:`schema_for`): the entry a
+        member's defaults list names. The leading ``/`` says the schema is stored at the root of the
+        ConfigStore, not in its group, so it is no choice of the group (``--help`` does not list it).
     """
-    return tuple((group, f"{member}_schema", schema_for(target)) for group, member, target in members)
+    return tuple(
+        (group, f"/{group}_{member}_schema", schema_for(target)) for group, member, target in members
+    )

@@ -193,15 +193,18 @@ def test_help_lists_no_schema():
 @pytest.mark.slow
 def test_a_job_that_cannot_be_built_writes_an_error_record(tmp_path):
     run = tmp_path / "run"
-    r = launch_py("task=bottle", "seed=4", "planner.num_samples=0", f"hydra.run.dir={run}", *QUIET)
+    # Every value passes on its own; the planner refuses the combination when it is built.
+    r = launch_py(
+        "task=bottle", "seed=4", "planner=cem", "planner.num_elites=1000", f"hydra.run.dir={run}", *QUIET
+    )
     assert r.returncode == 1
     errors = [line for line in r.stderr.splitlines() if line.startswith("contactmpc: error:")]
-    assert len(errors) == 1 and "num_samples >= 1" in errors[0], r.stderr
+    assert len(errors) == 1 and "num_elites" in errors[0], r.stderr
     record = json.loads((run / "trial.json").read_text())
-    assert record["status"] == "error" and "num_samples >= 1" in record["error"]
-    assert "\n" not in record["error"] and "ValueError" in record["traceback"]
-    assert (record["task"], record["planner"], record["seed"]) == ("bottle", "predictive_sampling", 4)
-    assert record["config"]["planner"]["num_samples"] == 0 and record["config"]["output_dir"] == str(run)
+    assert record["status"] == "error" and "num_elites" in record["error"]
+    assert "\n" not in record["error"] and "ConfigError" in record["traceback"]
+    assert (record["task"], record["planner"], record["seed"]) == ("bottle", "cem", 4)
+    assert record["config"]["planner"]["num_elites"] == 1000 and record["config"]["output_dir"] == str(run)
 
 
 @pytest.mark.slow

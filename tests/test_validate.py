@@ -106,9 +106,9 @@ def test_shipped_configs_pass(member, tmp_path):
     check_config(_resolved([member], tmp_path))
 
 
+_BY_NAME = {name: cls for _, name, cls in launch.SCHEMAS}
 MEMBER_SCHEMAS = [
-    (group, member, next(cls for g, n, cls in launch.SCHEMAS if g == group and n == f"{member}_schema"))
-    for group, member, _ in launch.conf_members()
+    (group, member, _BY_NAME[f"/{group}_{member}_schema"]) for group, member, _ in launch.conf_members()
 ]
 
 
@@ -136,7 +136,7 @@ def _launch(*args: str) -> subprocess.CompletedProcess:
     ("override", "line"),
     [
         ("planner.horizon=nan", "planner.horizon must be finite and > 0, got nan"),
-        ("task.time_scale=inf", "task.time_scale must be finite, got inf"),
+        ("task.time_scale=inf", "task.time_scale must be finite and > 0, got inf"),
     ],
 )
 def test_launch_refuses_nonsense_in_one_line_before_any_work(override, line, tmp_path):
