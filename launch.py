@@ -45,7 +45,7 @@ from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
 from contactmpc.config import Config, check_config, member_schemas  # noqa: E402
 from contactmpc.jobs.trial import failure_status  # noqa: E402
-from contactmpc.records import RECORD_NAME, write_json  # noqa: E402
+from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME, write_json  # noqa: E402
 
 CONF_DIR = Path(__file__).resolve().parent / "conf"
 
@@ -54,10 +54,6 @@ FINISHED = ("ok", "diverged")
 RESUME = (True, False, "overwrite")
 """Values of ``resume``: skip a job whose finished record holds the same trial (``true``), run it
 again (``false``), or run it even over a finished record of a different trial (``overwrite``)."""
-
-NOT_THE_TRIAL = ("output_dir", "resume", "job.progress", "job.reference_cache")
-"""Config keys (with everything under them) that do not change a trial: where it is written, whether it
-resumes, its progress bar, where references are cached. Resume compares every other key."""
 
 LOCK_NAME = ".lock"
 """In a job's directory: locked (``flock``) while a process runs the job."""

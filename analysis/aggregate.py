@@ -33,8 +33,8 @@ from pathlib import Path
 import pandas as pd
 
 from analysis._cli import run, sweep_parser
+from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME
 
-RECORD_NAME = "trial.json"  # == contactmpc.records.RECORD_NAME (not imported: keeps this package light)
 SWEEP_MARKER = "multirun.yaml"  # Hydra writes it into the root of a multirun sweep
 
 #: Variants of the paper's ablation (Fig. 3) under the predictive-sampling planner: (cost, sampler).
@@ -52,18 +52,10 @@ TASK_ORDER: tuple[str, ...] = ("doorknob", "apple", "bottle", "stapler")
 #: Planner settings copied from ``config.planner`` into columns of the same name.
 CONFIG_COLUMNS: tuple[str, ...] = ("num_samples", "horizon", "replan_period")
 #: Config keys (and everything under them) that are not part of a trial's identity: paths and
-#: settings that change where a trial writes, how fast it runs or what it shows, never its result.
-#: (Paths that name an input, such as ``task.reference_path``, stay part of it.)
-VOLATILE_CONFIG_KEYS: tuple[str, ...] = (
-    "output_dir",  # the run directory (Hydra's runtime.output_dir)
-    "hydra",  # Hydra's own settings, should a record hold them
-    "resume",  # whether a finished record is skipped
-    "planner.nthread",  # rollout threads: the same rollouts, faster
-    "job.progress",  # the progress bar
-    "job.video",  # a video rendered after the trial ...
-    "job.video_speed",  # ... and its playback speed
-    "job.reference_cache",  # where synthesised references are cached (the same reference either way)
-)
+#: settings that change where a trial writes, how fast it runs or what it shows, never its result
+#: (:data:`contactmpc.records.NOT_THE_TRIAL`, which resuming uses too). Paths that name an input,
+#: such as ``task.reference_path``, stay part of it.
+VOLATILE_CONFIG_KEYS: tuple[str, ...] = NOT_THE_TRIAL
 #: Nodes the trial job copies from the root by interpolation (``conf/job/trial.yaml``): they vary with
 #: their originals, so they are left out of the identity and of the condition columns.
 COPIED_CONFIG_KEYS: tuple[str, ...] = ("job.sampler", "job.cost", "job.planner", "job.duration")

@@ -13,6 +13,20 @@ import numpy as np
 
 RECORD_NAME = "trial.json"
 SERIES_NAME = "timeseries.npz"
+
+NOT_THE_TRIAL: tuple[str, ...] = (
+    "output_dir",  # the run directory (Hydra's runtime.output_dir)
+    "hydra",  # Hydra's own settings, should a record hold them
+    "resume",  # whether a finished record is skipped
+    "planner.nthread",  # rollout threads: the same rollouts, faster
+    "job.progress",  # the progress bar
+    "job.video",  # a video rendered after the trial ...
+    "job.video_speed",  # ... and its playback speed
+    "job.reference_cache",  # where synthesised references are cached (the same reference either way)
+)
+"""Config keys (with everything under them) that do not change what a trial does: where it is written,
+how fast it runs, what it shows. A trial's identity is its resolved config less these (and its seed):
+resuming (``launch.py``) and the analysis (``analysis.aggregate``) both compare configs this way."""
 SCHEMA_VERSION = 1
 
 
