@@ -9,47 +9,6 @@ names; the data is never copied into the repository.
   evaluation exactly as the authors' C++ does it. The importer that turns them into a
   :class:`~contactmpc.reference.data.Reference` comes next.
 
-The submodules import each other directly, never this package's ``__init__``.
+The submodules import each other directly, never this package's ``__init__``, which exports nothing:
+import from the submodule (``from contactmpc.reference.paper import formats``).
 """
-
-from contactmpc.reference.paper.formats import (
-    MOCAP_FPS,
-    ContactFrames,
-    FrameContacts,
-    PCSplines,
-    SplineCurves,
-    aliased_transpose,
-    code_component_matrix,
-    contact_frame_index,
-    evaluate,
-    read_contacts,
-    read_pcmexp,
-    read_smexp,
-    reconstruct,
-    reconstruct_as_code,
-    spline_parameter,
-    time_column,
-    to_mujoco_units,
-    value_column,
-)
-
-__all__ = [
-    "MOCAP_FPS",
-    "ContactFrames",
-    "FrameContacts",
-    "PCSplines",
-    "SplineCurves",
-    "aliased_transpose",
-    "code_component_matrix",
-    "contact_frame_index",
-    "evaluate",
-    "read_contacts",
-    "read_pcmexp",
-    "read_smexp",
-    "reconstruct",
-    "reconstruct_as_code",
-    "spline_parameter",
-    "time_column",
-    "to_mujoco_units",
-    "value_column",
-]
