@@ -16,6 +16,7 @@ import pytest
 from omegaconf import OmegaConf
 
 import launch
+from contactmpc import runs
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners import PredictiveSampling
 from contactmpc.control.samplers import PCASplineSpace
@@ -53,7 +54,7 @@ def start(*args):
 def locked(directory: Path) -> bool:
     """Whether another process holds ``directory/.lock``."""
     try:
-        with open(directory / launch.LOCK_NAME) as f:
+        with open(directory / runs.LOCK_NAME) as f:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except FileNotFoundError:
         return False
@@ -97,19 +98,19 @@ def refs(tmp_path_factory):
 
 
 def test_safe_dirname_is_flat_short_and_keeps_overrides_apart():
-    assert launch.safe_dirname("seed=0,task=apple,variant=full") == "seed=0,task=apple,variant=full"
-    assert launch.safe_dirname("") == ""
-    a = launch.safe_dirname("task.reference_path=/data/refs/x.npz,task=apple")
-    b = launch.safe_dirname("task.reference_path=/other/x.npz,task=apple")
+    assert runs.safe_dirname("seed=0,task=apple,variant=full") == "seed=0,task=apple,variant=full"
+    assert runs.safe_dirname("") == ""
+    a = runs.safe_dirname("task.reference_path=/data/refs/x.npz,task=apple")
+    b = runs.safe_dirname("task.reference_path=/other/x.npz,task=apple")
     assert a.startswith("task.reference_path=x.npz,task=apple-") and len(a) == len(b) == 45
     assert a != b  # the hash of the original tells them apart
-    assert launch.safe_dirname("group/sub=a/b") == "group_sub=b-" + launch.safe_dirname("group/sub=a/b")[-8:]
-    long = launch.safe_dirname("x=" + "a" * 500)
-    assert len(long) == 200 and long != launch.safe_dirname("x=" + "a" * 501)
-    assert launch.safe_dirname("scene.hand_root=[0,0,0.1] 'q'").startswith("scene.hand_root=_0,0,0.1___q_-")
+    assert runs.safe_dirname("group/sub=a/b") == "group_sub=b-" + runs.safe_dirname("group/sub=a/b")[-8:]
+    long = runs.safe_dirname("x=" + "a" * 500)
+    assert len(long) == 200 and long != runs.safe_dirname("x=" + "a" * 501)
+    assert runs.safe_dirname("scene.hand_root=[0,0,0.1] 'q'").startswith("scene.hand_root=_0,0,0.1___q_-")
     # the resolver is what the sweep's subdir uses
     cfg = OmegaConf.create({"name": "a=/b/c", "dir": "${safe_dirname:${name}}"})
-    assert cfg.dir == launch.safe_dirname("a=/b/c")
+    assert cfg.dir == runs.safe_dirname("a=/b/c")
 
 
 def _config(*overrides):
@@ -121,43 +122,43 @@ def _config(*overrides):
 def test_config_differences_name_the_keys_that_change_the_trial():
     apple = _config("task=apple")
     stored = json.loads(json.dumps(apple))  # as a record holds it
-    assert launch.config_differences(stored, apple) == []
+    assert runs.config_differences(stored, apple) == []
     moved = _config("task=apple", "job.progress=false", "resume=false", "job.reference_cache=/tmp/c")
-    assert launch.config_differences(stored, moved) == []  # settings that do not change the trial
-    diffs = launch.config_differences(stored, _config("task=bottle", "seed=3"))
+    assert runs.config_differences(stored, moved) == []  # settings that do not change the trial
+    diffs = runs.config_differences(stored, _config("task=bottle", "seed=3"))
     assert diffs[0] == "task._target_: contactmpc.tasks.BottleTask != contactmpc.tasks.AppleTask"
     assert "seed: 3 != 0" in diffs and "task.radius: 0.0325 != 0.041" in diffs
-    assert launch.config_differences({**stored, "extra": 1}, apple) == ["extra: <absent> != 1"]
-    assert launch.config_differences({"a": None}, {"a": float("inf")}) == []  # JSON keeps no infinity
-    assert launch.config_differences(None, apple) == ["config: not in the record"]
+    assert runs.config_differences({**stored, "extra": 1}, apple) == ["extra: <absent> != 1"]
+    assert runs.config_differences({"a": None}, {"a": float("inf")}) == []  # JSON keeps no infinity
+    assert runs.config_differences(None, apple) == ["config: not in the record"]
 
 
 def test_resume_decision(tmp_path):
     apple, bottle = _config("task=apple"), _config("task=bottle")
-    assert launch.resume_decision(tmp_path, apple, True) == ("run", None)
+    assert runs.resume_decision(tmp_path, apple, True) == ("run", None)
     write_json(tmp_path / "trial.json", {"status": "ok", "config": apple})
-    action, line = launch.resume_decision(tmp_path, apple, True)
+    action, line = runs.resume_decision(tmp_path, apple, True)
     assert action == "skip" and "skipped (record exists, status ok)" in line
-    assert launch.resume_decision(tmp_path, apple, False) == ("run", None)
-    action, line = launch.resume_decision(tmp_path, bottle, True)
+    assert runs.resume_decision(tmp_path, apple, False) == ("run", None)
+    action, line = runs.resume_decision(tmp_path, bottle, True)
     assert action == "refuse"
     assert line.startswith(
         f"contactmpc: error: {tmp_path / 'trial.json'} holds a different trial (task._target_: "
     )
     assert line.endswith("; re-run with resume=overwrite or use another directory") and "\n" not in line
-    assert launch.resume_decision(tmp_path, bottle, False)[0] == "refuse"
-    assert launch.resume_decision(tmp_path, bottle, "overwrite") == ("run", None)
+    assert runs.resume_decision(tmp_path, bottle, False)[0] == "refuse"
+    assert runs.resume_decision(tmp_path, bottle, "overwrite") == ("run", None)
     write_json(tmp_path / "trial.json", {"status": "error", "config": apple})  # not a result: run again
-    assert launch.resume_decision(tmp_path, bottle, True) == ("run", None)
+    assert runs.resume_decision(tmp_path, bottle, True) == ("run", None)
 
 
 def test_job_lock_is_exclusive(tmp_path):
-    with launch.job_lock(tmp_path / "job") as first:
+    with runs.job_lock(tmp_path / "job") as first:
         assert first and locked(tmp_path / "job")
-        with launch.job_lock(tmp_path / "job") as second:
+        with runs.job_lock(tmp_path / "job") as second:
             assert not second
     assert not locked(tmp_path / "job")
-    with launch.job_lock(tmp_path / "job") as again:
+    with runs.job_lock(tmp_path / "job") as again:
         assert again
 
 
