@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import os
+
 import mujoco
 import numpy as np
 
+from contactmpc.control import rollout
 from contactmpc.control.rollout import RolloutEngine
 from tests.helpers import POINT_MASS
 
@@ -43,3 +46,31 @@ def test_diverged_rollouts_are_flagged():
     with RolloutEngine(model, nthread=1) as engine:
         _, _, diverged = engine.run(_state(model, data), ctrl)
     assert diverged.tolist() == [False, True]
+
+
+def test_available_cpus_follow_affinity_and_cgroup_quota(tmp_path, monkeypatch):
+    """A job limited to some CPUs (Slurm, taskset, a container quota) starts a thread per CPU it may use,
+    not per core of the node."""
+
+    quota = rollout._cgroup_cpu_quota  # the real reader, tested on files below
+    assert 1 <= rollout.available_cpus() <= (os.cpu_count() or 1)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2, 3, 4, 5, 6, 7})
+    monkeypatch.setattr(rollout, "_cgroup_cpu_quota", lambda: None)
+    assert rollout.available_cpus() == 8
+    monkeypatch.setattr(rollout, "_cgroup_cpu_quota", lambda: 3)
+    assert rollout.available_cpus() == 3
+
+    v2 = tmp_path / "v2"
+    v2.mkdir()
+    (v2 / "cpu.max").write_text("250000 100000\n")
+    assert quota(str(v2)) == 3  # 2.5 CPUs rounded up
+    (v2 / "cpu.max").write_text("max 100000\n")
+    assert quota(str(v2)) is None
+    v1 = tmp_path / "v1"
+    (v1 / "cpu").mkdir(parents=True)
+    (v1 / "cpu" / "cpu.cfs_quota_us").write_text("400000\n")
+    (v1 / "cpu" / "cpu.cfs_period_us").write_text("100000\n")
+    assert quota(str(v1)) == 4
+    (v1 / "cpu" / "cpu.cfs_quota_us").write_text("-1\n")
+    assert quota(str(v1)) is None
+    assert quota(str(tmp_path / "none")) is None

@@ -2,11 +2,51 @@
 
 from __future__ import annotations
 
+import math
 import os
 
 import mujoco
 import numpy as np
 from mujoco import rollout
+
+
+def available_cpus() -> int:
+    """CPUs this process may use: its affinity mask (what Slurm and ``taskset`` grant), capped by a
+    cgroup CPU quota (containers, Slurm's cgroup plugin); ``os.cpu_count()`` counts the whole node.
+
+    Returns:
+        At least 1.
+    """
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        cpus = os.cpu_count() or 1
+    quota = _cgroup_cpu_quota()
+    return max(1, min(cpus, quota) if quota else cpus)
+
+
+def _cgroup_cpu_quota(root: str = "/sys/fs/cgroup") -> int | None:
+    """The CPU quota of this process's cgroup, rounded up to whole CPUs; ``None`` without one.
+
+    Reads cgroup v2 ``cpu.max`` (``"<quota> <period>"`` or ``"max <period>"``) or v1
+    ``cpu/cpu.cfs_quota_us`` and ``cpu.cfs_period_us`` (quota -1: none).
+    """
+    v1 = f"{root}/cpu/cpu.cfs_"
+    candidates = ((f"{root}/cpu.max", None), (f"{v1}quota_us", f"{v1}period_us"))
+    for quota_file, period_file in candidates:
+        try:
+            with open(quota_file) as f:
+                fields = f.read().split()
+            if period_file is not None:
+                with open(period_file) as f:
+                    fields.append(f.read().strip())
+        except OSError:
+            continue
+        if len(fields) < 2 or fields[0] in ("max", "-1"):
+            return None
+        quota, period = float(fields[0]), float(fields[1])
+        return max(1, math.ceil(quota / period)) if quota > 0 and period > 0 else None
+    return None
 
 
 class RolloutEngine:
@@ -17,12 +57,12 @@ class RolloutEngine:
 
     Args:
         model: the planning model (agent timestep).
-        nthread: worker threads; ``None`` = the machine's cores.
+        nthread: worker threads; ``None`` = the CPUs this process may use (:func:`available_cpus`).
     """
 
     def __init__(self, model: mujoco.MjModel, nthread: int | None = None) -> None:
         self.model = model
-        self.nthread = int(nthread or os.cpu_count() or 1)
+        self.nthread = int(nthread or available_cpus())
         self.datas = [mujoco.MjData(model) for _ in range(self.nthread)]
         self.pool = rollout.Rollout(nthread=self.nthread)
         self.nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)

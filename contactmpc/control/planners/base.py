@@ -56,7 +56,9 @@ class Planner:
         num_samples: rollouts per planning iteration (sample 0 is the nominal).
         horizon: planning horizon (s).
         replan_period: control time between planning iterations (s).
-        nthread: rollout threads; ``None`` = all cores.
+        nthread: rollout threads; ``None`` = the CPUs this process may use (its affinity mask and
+            cgroup quota, :func:`~contactmpc.control.rollout.available_cpus`), so a Slurm job with
+            8 CPUs on a 64-core node starts 8.
     """
 
     needs_rollouts = True
