@@ -5,7 +5,9 @@ Kinematics, joint limits and collision primitives follow the MuJoCo Menagerie mo
 
 The ``palm`` body is the wrist root's child (see :class:`~contactmpc.hands.base.FloatingHand`),
 rotated by quat (0, 1, 0, 1)/sqrt(2); the four fingers hang from the palm. Every joint has a position
-actuator of the same name.
+actuator of the same name. The kinematic table (finger tree, palm placement and geom) is a set of class
+attributes, so a subclass with another table builds another Allegro hand
+(:class:`~contactmpc.hands.allegro_paper.AllegroPaperHand`).
 
 Example:
     >>> spec = mujoco.MjSpec()
@@ -32,8 +34,6 @@ __all__ = ["AllegroHand"]
 _DARK = (0.2, 0.2, 0.2, 1.0)
 _PALM = (0.27, 0.27, 0.27, 1.0)
 _TIP = (0.9, 0.9, 0.9, 1.0)
-
-_PALM_QUAT = (0.0, 1.0, 0.0, 1.0)  # normalised at build time
 
 
 @dataclass(frozen=True)
@@ -124,7 +124,6 @@ _FINGER_TREE: tuple[_Link, ...] = (
 )  # fmt: skip
 
 _GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE}
-_FINGER_RANGES = {link.joint: link.range for link in _FINGER_TREE if link.joint is not None}
 
 
 class AllegroHand(FloatingHand):
@@ -157,6 +156,12 @@ class AllegroHand(FloatingHand):
         "thj2",
         "thj3",
     )
+    # The kinematic table: the finger tree (parent before child), the palm's pose under the wrist root
+    # (quaternion normalised at build time) and its collision geom.
+    TREE: tuple[_Link, ...] = _FINGER_TREE
+    PALM_POS: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    PALM_QUAT: tuple[float, float, float, float] = (0.0, 1.0, 0.0, 1.0)
+    PALM_GEOM: _Geom = _PALM_GEOM
 
     @checked
     def __init__(
@@ -176,22 +181,26 @@ class AllegroHand(FloatingHand):
 
     def __repr__(self) -> str:
         return (
-            f"AllegroHand(name={self.name!r}, kp_finger={self.kp_finger}, kp_slide={self.kp_slide}, "
-            f"kp_hinge={self.kp_hinge}, gravcomp={self.gravcomp})"
+            f"{type(self).__name__}(name={self.name!r}, kp_finger={self.kp_finger}, "
+            f"kp_slide={self.kp_slide}, kp_hinge={self.kp_hinge}, gravcomp={self.gravcomp})"
         )
 
     # ------------------------------------------------------------------ names and limits
     def finger_range(self, joint: str) -> tuple[float, float]:
-        return _FINGER_RANGES[joint]
+        return {link.joint: link.range for link in self.TREE if link.joint is not None}[joint]
 
     # ------------------------------------------------------------------ building
     def add_fingers(
         self, spec: mujoco.MjSpec, root: mujoco.MjsBody, hinge_unit: float
     ) -> dict[str, mujoco.MjsBody]:
-        palm_quat = np.asarray(_PALM_QUAT) / np.linalg.norm(_PALM_QUAT)
-        bodies = {"palm": root.add_body(name="palm", quat=palm_quat.tolist())}
-        self._add_geom(bodies["palm"], "palm", _PALM_GEOM, _PALM)
-        for link in _FINGER_TREE:
+        palm_quat = np.asarray(self.PALM_QUAT, dtype=float)
+        bodies = {
+            "palm": root.add_body(
+                name="palm", pos=list(self.PALM_POS), quat=(palm_quat / np.linalg.norm(palm_quat)).tolist()
+            )
+        }
+        self._add_geom(bodies["palm"], "palm", self.PALM_GEOM, _PALM)
+        for link in self.TREE:
             quat = np.asarray(link.quat, dtype=float)
             body = bodies[link.parent].add_body(
                 name=link.name, pos=list(link.pos), quat=(quat / np.linalg.norm(quat)).tolist()
