@@ -2,7 +2,8 @@
 (:class:`~contactmpc.hands.base.Hand`)."""
 
 from contactmpc.hands.allegro import AllegroHand
+from contactmpc.hands.allegro_paper import AllegroPaperHand
 from contactmpc.hands.base import FloatingHand, Hand
 from contactmpc.hands.gripper import ParallelGripper
 
-__all__ = ["AllegroHand", "FloatingHand", "Hand", "ParallelGripper"]
+__all__ = ["AllegroHand", "AllegroPaperHand", "FloatingHand", "Hand", "ParallelGripper"]
