@@ -383,9 +383,7 @@ class Task:
         Returns:
             Milestone name -> reached. The task is completed when all are reached.
         """
-        return {
-            name: sustained(ok & held, time, hold) for name, ok in self.conditions(qo, expected).items()
-        }
+        return {name: sustained(ok & held, time, hold) for name, ok in self.conditions(qo, expected).items()}
 
     def lift(self, qo: np.ndarray) -> np.ndarray:
         """(N,) height of the (first) free body above its first position (m)."""
