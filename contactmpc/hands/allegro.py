@@ -96,17 +96,26 @@ _TH_DIST_GEOM = _Geom("box", (0.0098, 0.01375, 0.0157), (0.0, 0.0, 0.0157), 0.03
 _TH_TIP_GEOM = _Geom("capsule", (0.012, 0.008), (0.0, 0.0, 0.035), 0.0168)
 
 
-def _finger(prefix: str, pos: tuple, quat: tuple) -> list[_Link]:
-    """The five bodies of one long finger (ff, mf or rf), parent first."""
+def _finger(
+    prefix: str,
+    pos: tuple,
+    quat: tuple,
+    distal_quat: tuple = _IDQ,
+    tip_offset: float = 0.0,
+    tip_geom: _Geom = _TIP_GEOM,
+) -> list[_Link]:
+    """The five bodies of one long finger (ff, mf or rf), parent first: base at ``pos``/``quat`` on the
+    palm, the distal link turned by ``distal_quat``, the tip body ``tip_offset`` beyond the distal
+    joint carrying ``tip_geom``."""
     return [
         _Link(f"{prefix}_base", "palm", pos, quat, f"{prefix}j0", _Z, (-0.47, 0.47), _BASE_GEOM),
         _Link(f"{prefix}_proximal", f"{prefix}_base", (0, 0, 0.0164), _IDQ, f"{prefix}j1", _Y,
               (-0.196, 1.61), _PROX_GEOM),
         _Link(f"{prefix}_medial", f"{prefix}_proximal", (0, 0, 0.054), _IDQ, f"{prefix}j2", _Y,
               (-0.174, 1.709), _MED_GEOM),
-        _Link(f"{prefix}_distal", f"{prefix}_medial", (0, 0, 0.0384), _IDQ, f"{prefix}j3", _Y,
+        _Link(f"{prefix}_distal", f"{prefix}_medial", (0, 0, 0.0384), distal_quat, f"{prefix}j3", _Y,
               (-0.227, 1.618), _DIST_GEOM),
-        _Link(f"{prefix}_tip", f"{prefix}_distal", (0, 0, 0), _IDQ, None, _Z, (0, 0), _TIP_GEOM),
+        _Link(f"{prefix}_tip", f"{prefix}_distal", (0, 0, tip_offset), _IDQ, None, _Z, (0, 0), tip_geom),
     ]  # fmt: skip
 
 

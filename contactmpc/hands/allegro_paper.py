@@ -33,11 +33,7 @@ from __future__ import annotations
 from typing import Annotated
 
 from contactmpc.hands.allegro import (
-    _BASE_GEOM,
-    _DIST_GEOM,
     _IDQ,
-    _MED_GEOM,
-    _PROX_GEOM,
     _TH_BASE_GEOM,
     _TH_DIST_GEOM,
     _TH_MED_GEOM,
@@ -50,6 +46,7 @@ from contactmpc.hands.allegro import (
     _Geom,
     _Link,
 )
+from contactmpc.hands.allegro import _finger as allegro_finger
 from contactmpc.validate import Ge, checked
 
 __all__ = ["AllegroPaperHand"]
@@ -69,18 +66,9 @@ _PAPER_TH_TIP_GEOM = _shifted(_TH_TIP_GEOM, -_TH_TIP_OFFSET)
 
 
 def _finger(prefix: str, pos: tuple, quat: tuple, distal_quat: tuple = _IDQ) -> list[_Link]:
-    """The five bodies of one long finger (ff, mf or rf) in the authors' model, parent first."""
-    return [
-        _Link(f"{prefix}_base", "palm", pos, quat, f"{prefix}j0", _Z, (-0.47, 0.47), _BASE_GEOM),
-        _Link(f"{prefix}_proximal", f"{prefix}_base", (0, 0, 0.0164), _IDQ, f"{prefix}j1", _Y,
-              (-0.196, 1.61), _PROX_GEOM),
-        _Link(f"{prefix}_medial", f"{prefix}_proximal", (0, 0, 0.054), _IDQ, f"{prefix}j2", _Y,
-              (-0.174, 1.709), _MED_GEOM),
-        _Link(f"{prefix}_distal", f"{prefix}_medial", (0, 0, 0.0384), distal_quat, f"{prefix}j3", _Y,
-              (-0.227, 1.618), _DIST_GEOM),
-        _Link(f"{prefix}_tip", f"{prefix}_distal", (0, 0, _TIP_OFFSET), _IDQ, None, _Z, (0, 0),
-              _PAPER_TIP_GEOM),
-    ]  # fmt: skip
+    """One long finger in the authors' model: :func:`~contactmpc.hands.allegro._finger` with their
+    fingertip body offset and our capsule kept where it sits."""
+    return allegro_finger(prefix, pos, quat, distal_quat, _TIP_OFFSET, _PAPER_TIP_GEOM)
 
 
 # Transcribed from right_hand_body.xml (bodies allegro_<name>) and the joint classes of
