@@ -40,7 +40,7 @@ from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
 from contactmpc.config import Config, check_config, member_schemas  # noqa: E402
 from contactmpc.jobs.trial import failure_status  # noqa: E402
-from contactmpc.records import RECORD_NAME, write_json  # noqa: E402
+from contactmpc.records import RECORD_NAME, one_line, write_json  # noqa: E402
 from contactmpc.runs import (  # noqa: E402
     RESUME,
     job_lock,
@@ -108,11 +108,6 @@ def build_scene(cfg: DictConfig):
 
 
 # --------------------------------------------------------------------------------------------- jobs
-
-
-def _one_line(err: BaseException) -> str:
-    message = " ".join(str(err).split())
-    return f"{type(err).__name__}: {message}" if message else type(err).__name__
 
 
 def _sweep_state() -> Path | None:
@@ -186,7 +181,7 @@ def _run(cfg: DictConfig, output_dir: Path, config: dict, labels: dict) -> dict:
             print(f"contactmpc: interrupted{where}", file=sys.stderr)
         else:
             # One line that names the problem; the trial's record (if it got that far) says the same.
-            print(f"contactmpc: error: {_one_line(err)}", file=sys.stderr)
+            print(f"contactmpc: error: {one_line(err)}", file=sys.stderr)
         return outcome
     print(f"[contactmpc] {cfg.job._target_.rsplit('.', 1)[-1]}: wrote {result}")
     return {"status": "ok", "record": str(result)}
@@ -276,7 +271,7 @@ class SweepSummary(Callback):
         if job_return.status == JobStatus.COMPLETED and isinstance(value, dict):
             outcome = value
         else:
-            error = _one_line(value) if isinstance(value, BaseException) else None
+            error = one_line(value) if isinstance(value, BaseException) else None
             outcome = {"status": "error", "error": error}
         outcome["dir"] = str(config.hydra.runtime.output_dir)
         write_json(self._outcome_path(config), outcome)

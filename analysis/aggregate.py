@@ -33,7 +33,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis._cli import run, sweep_parser
-from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME
+from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME, one_line
 
 SWEEP_MARKER = "multirun.yaml"  # Hydra writes it into the root of a multirun sweep
 
@@ -272,7 +272,7 @@ def load_records(*dirs: str | Path, dedupe: bool = True) -> pd.DataFrame:
                 row = read_record(path)
                 mtime = path.stat().st_mtime
             except (OSError, ValueError) as err:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
-                warnings.warn(f"skipping unreadable record {path}: {_one_line(err)}", RecordWarning, 2)
+                warnings.warn(f"skipping unreadable record {path}: {one_line(err)}", RecordWarning, 2)
                 continue
             row["sweep_dir"] = str(sweep_root(path, root))
             row["record_path"] = str(path)
@@ -450,10 +450,6 @@ def _coerce(df: pd.DataFrame) -> pd.DataFrame:
 
 def _missing(x) -> bool:
     return x is None or (isinstance(x, float) and x != x) or x is pd.NA
-
-
-def _one_line(err: BaseException) -> str:
-    return " ".join(f"{type(err).__name__}: {err}".split())
 
 
 def run_records(

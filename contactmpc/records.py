@@ -14,6 +14,13 @@ import numpy as np
 RECORD_NAME = "trial.json"
 SERIES_NAME = "timeseries.npz"
 
+def one_line(err: BaseException) -> str:
+    """``"<Type>: <message>"`` on one line (whitespace collapsed), or the type alone without a message:
+    how records and error lines name an exception."""
+    message = " ".join(str(err).split())
+    return f"{type(err).__name__}: {message}" if message else type(err).__name__
+
+
 NOT_THE_TRIAL: tuple[str, ...] = (
     "output_dir",  # the run directory (Hydra's runtime.output_dir)
     "hydra",  # Hydra's own settings, should a record hold them

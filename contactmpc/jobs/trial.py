@@ -15,7 +15,15 @@ from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
 from contactmpc.control.samplers import SplineSpace
 from contactmpc.metrics import time_to_failure
-from contactmpc.records import RECORD_NAME, SERIES_NAME, git_revision, versions, write_json, write_series
+from contactmpc.records import (
+    RECORD_NAME,
+    SERIES_NAME,
+    git_revision,
+    one_line,
+    versions,
+    write_json,
+    write_series,
+)
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
 from contactmpc.trial import PlantDiverged, Trial
@@ -165,8 +173,7 @@ def _write_failure(
     out: Path, record: dict, err: BaseException, wall_seconds: float | None, config: dict | None
 ) -> Path:
     record["status"] = failure_status(err)
-    message = " ".join(str(err).split())
-    record["error"] = f"{type(err).__name__}: {message}" if message else type(err).__name__
+    record["error"] = one_line(err)
     record["traceback"] = "".join(traceback.format_exception(err, limit=8))
     record["wall_seconds"] = wall_seconds
     record["config"] = config
