@@ -204,6 +204,7 @@ class Config:
     seed: Annotated[int, Ge(0)] = 0
     resume: Any = True  # true | false | overwrite (launch.py checks the value)
     duration: Annotated[float, Gt(0)] | None = None
+    paper_data: str | None = None
     output_dir: str = "${hydra:runtime.output_dir}"
 
 

@@ -159,7 +159,8 @@ class Scene:
         integrator: MuJoCo integrator name (``implicitfast`` suits damped position servos).
         cone: friction cone, ``elliptic`` or ``pyramidal``.
         impratio: frictional-to-normal impedance ratio (higher resists slip in grasps).
-        hand_root: (3,) world position of the wrist's zero.
+        hand_root: (3,) offset of the wrist's zero from the task's ``hand_mount`` (world frame; most
+            tasks mount the hand at the origin).
 
     Raises:
         SceneError: if the scene does not compile or a name does not resolve.
@@ -211,7 +212,8 @@ class Scene:
             name="fill", pos=[-0.6, 0.6, 1.2], dir=[0.4, -0.4, -1.0], diffuse=[0.3] * 3
         )
         try:
-            hand.add_to(self.spec, root_pos=hand_root)
+            self.hand_root = np.add(task.hand_mount, hand_root)
+            hand.add_to(self.spec, root_pos=self.hand_root)
             for joint in hand.joint_names:  # hand velocities for the cost, vectorised over rollouts
                 self.spec.add_sensor(
                     name=f"{joint}_vel",

@@ -97,6 +97,8 @@ class AllegroPaperHand(AllegroHand):
         kp_finger: position gain of the finger actuators (N·m/rad); theirs, 1.
         damping_finger: finger joint damping (N·m·s/rad); theirs, 0.1.
         name: identifier of this hand (for records).
+        slide_range: limits of the wrist slides (m) about the mount; their wrist slides are unlimited
+            and the retargeted wrists travel up to 1.32 m from where they start.
         **kwargs: see :class:`AllegroHand` (finger armature and force limit: ours) and the wrist.
     """
 
@@ -110,6 +112,9 @@ class AllegroPaperHand(AllegroHand):
         kp_finger: Annotated[float, Ge(0)] = 1.0,
         damping_finger: Annotated[float, Ge(0)] = 0.1,
         name: str = "allegro_paper_right",
+        slide_range: tuple[float, float] = (-2.0, 2.0),
         **kwargs,
     ) -> None:
-        super().__init__(kp_finger=kp_finger, damping_finger=damping_finger, name=name, **kwargs)
+        super().__init__(
+            kp_finger=kp_finger, damping_finger=damping_finger, name=name, slide_range=slide_range, **kwargs
+        )

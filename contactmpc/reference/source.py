@@ -1,6 +1,8 @@
 """Where a trial's reference comes from: a user's ``.npz`` (``task.reference_path``) or the task's
-synthesised demonstration (``task.demonstration``, a design from
-:mod:`contactmpc.reference.synthetic.designs` chosen in the task's config)."""
+demonstration (``task.demonstration``, chosen in the task's config): a synthetic design of
+:mod:`contactmpc.reference.synthetic.designs`, or the authors' data imported by
+:class:`contactmpc.reference.paper.demonstration.PaperDemonstration`. A demonstration has
+``build(scene) -> Reference`` and says whether its result is worth caching (``cacheable``)."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from contactmpc.reference.data import Reference
-from contactmpc.reference.synthetic.demonstration import SYNTHESIS_VERSION, synthesize
+from contactmpc.reference.synthetic.demonstration import SYNTHESIS_VERSION
 from contactmpc.reference.synthetic.kinematics import SynthesisError
 from contactmpc.scene import Scene
 
@@ -76,11 +78,11 @@ def get_reference(scene: Scene, cache_dir: str | Path | None = None) -> Referenc
             f"task {scene.task.name!r} has no reference_path and no demonstration design to synthesise"
         )
     path = None
-    if cache_dir is not None:
+    if cache_dir is not None and demo.cacheable:
         path = Path(cache_dir) / f"{scene.task.name}_{_fingerprint(scene)}.npz"
         if path.exists():
             return Reference.load(path, *names, **expect)
-    ref = synthesize(scene, demo)
+    ref = demo.build(scene)
     ref.validate(*names, **expect)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)

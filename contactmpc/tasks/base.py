@@ -254,6 +254,9 @@ class Task:
     object_joints: tuple[ObjectJoint, ...] = ()
     object_bodies: tuple[str, ...] = ()
     table_height: float = 0.0
+    # World position of the wrist's zero (the scene adds its ``hand_root`` to it): where the task mounts
+    # the hand, e.g. the paper tasks' ``hand_startclamp``.
+    hand_mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
     # Default free camera for renders: see contactmpc.render.make_camera.
     view: dict = {"lookat": (0.0, 0.0, 0.06), "distance": 0.75, "azimuth": 135.0, "elevation": -25.0}
 
@@ -398,6 +401,11 @@ class Task:
         zz = 1.0 - 2.0 * (x * x + y * y)  # world-z component of the body's z axis
         zz /= w * w + x * x + y * y + z * z
         return np.arccos(np.clip(zz, -1.0, 1.0))
+
+    def start_object_qpos(self, reference_qo: np.ndarray) -> np.ndarray:
+        """(n_o,) where a trial puts the object at t = 0, given the reference's first configuration
+        ``reference_qo`` (n_o,); the reference's own, unless a task moves it (the paper's apple)."""
+        return np.array(reference_qo, dtype=float, copy=True)
 
     def initial_object_qpos(self, model: mujoco.MjModel) -> np.ndarray:
         """(n_o,) the object configuration of the model's default pose (``qpos0``)."""

@@ -91,6 +91,7 @@ class Demonstration:
         regrasp_refinements: rounds of midpoint regrasps.
     """
 
+    cacheable = True  # synthesis takes seconds: get_reference caches the result
     rate: float = 50.0
     contact_threshold: float = 0.001
     approach_offset: tuple[float, float, float] = (0.0, 0.0, 0.06)
@@ -99,6 +100,10 @@ class Demonstration:
     regrasp_weight: float = 10.0
     regrasp_tolerance: float = 0.0003
     regrasp_refinements: int = 3
+
+    def build(self, scene: Scene) -> Reference:
+        """The gated reference of ``scene.task`` by this design (:func:`synthesize`)."""
+        return synthesize(scene, self)
 
     def grasp_problem(self, scene: Scene, kin: Kinematics) -> GraspProblem:
         """The grasp at the object's initial configuration."""
