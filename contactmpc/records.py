@@ -14,6 +14,7 @@ import numpy as np
 RECORD_NAME = "trial.json"
 SERIES_NAME = "timeseries.npz"
 
+
 def one_line(err: BaseException) -> str:
     """``"<Type>: <message>"`` on one line (whitespace collapsed), or the type alone without a message:
     how records and error lines name an exception."""

@@ -116,7 +116,9 @@ class Trial:
         per_plan = max(1, int(round(planner.replan_period / dt)))
         n_steps = int(round(self.duration / dt))
         hand0 = planner.targets(np.array([0.0]))[0]
-        scene.reset(d, hand_qpos=hand0, object_qpos=scene.task.start_object_qpos(self.reference.object_qpos[0]))
+        scene.reset(
+            d, hand_qpos=hand0, object_qpos=scene.task.start_object_qpos(self.reference.object_qpos[0])
+        )
         nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         state = np.empty(nstate)
         log = TrialLog()

@@ -117,7 +117,11 @@ class PaperTask(Task):
     def add_floor(spec: mujoco.MjSpec) -> None:
         """Their floor: a plane at z = -0.2 m."""
         spec.worldbody.add_geom(
-            name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, pos=[0, 0, -0.2], size=[3, 3, 0.05], material="floor_mat"
+            name="floor",
+            type=mujoco.mjtGeom.mjGEOM_PLANE,
+            pos=[0, 0, -0.2],
+            size=[3, 3, 0.05],
+            material="floor_mat",
         )
 
     @staticmethod

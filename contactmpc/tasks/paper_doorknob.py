@@ -37,7 +37,9 @@ class PaperDoorknobTask(PaperTask):
     def add_objects(self, spec) -> None:
         self.add_floor(spec)
         mount = spec.worldbody.add_body(name="doorknob_attachment", pos=list(self.ATTACHMENT))
-        knob = mount.add_body(name="doorknob_sim", pos=list(self.KNOB_POS), quat=list(self.KNOB_QUAT), gravcomp=1.0)
+        knob = mount.add_body(
+            name="doorknob_sim", pos=list(self.KNOB_POS), quat=list(self.KNOB_QUAT), gravcomp=1.0
+        )
         knob.add_joint(
             name="doorknob_slide",
             type=mujoco.mjtJoint.mjJNT_SLIDE,

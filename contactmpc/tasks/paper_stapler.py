@@ -43,7 +43,9 @@ class PaperStaplerTask(PaperTask):
         for body in spec.bodies:
             if body.name != "tablebody" and body.name and self._is_hand(body):
                 spec.add_exclude(bodyname1=body.name, bodyname2="tablebody")
-        self.add_free_object(spec, ("binder0", "binder1", "binder2", "head", "stand"), 1250.0, (0.2, 0.2, 0.22, 1.0))
+        self.add_free_object(
+            spec, ("binder0", "binder1", "binder2", "head", "stand"), 1250.0, (0.2, 0.2, 0.22, 1.0)
+        )
 
     @staticmethod
     def _is_hand(body) -> bool:
