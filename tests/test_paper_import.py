@@ -496,3 +496,25 @@ def test_real_paper_task_runs_two_seconds(task: str, tmp_path: Path, compose) ->
     assert result["simulated_seconds"] == pytest.approx(2.0, abs=0.06)
     assert cfg.hand._target_.endswith("AllegroPaperHand")  # the task chose its hand
     assert any(key.startswith("milestone_") for key in result)
+
+
+def test_sampler_can_use_the_references_own_pca(data) -> None:
+    """sampler.basis=reference: the PC map is the imported one (center + C^T p), not a refit."""
+    from contactmpc.control.samplers import PCASplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    root, _, _ = data
+    ref = _import(root)
+    space = PCASplineSpace(0.2, basis="reference")
+    spline = UniformBSpline(8, (0.0, ref.duration))
+    ranges = np.tile([-10.0, 10.0], (22, 1))
+    theta = space.fit(spline, ref.time, ref.hand_qpos, ranges, 6, meta=ref.meta)
+    center = np.array(ref.meta["paper_pca"]["center"])
+    comps = np.array(ref.meta["paper_pca"]["components"])
+    z = np.random.default_rng(0).normal(size=(5, 16))
+    np.testing.assert_allclose(space.finger_joints(z), center + z @ comps, atol=1e-12)
+    np.testing.assert_allclose(
+        space.joint_control_points(theta)[:, 6:], spline.fit(ref.time, ref.hand_qpos[:, 6:]), atol=1e-9
+    )
+    with pytest.raises(ValueError, match="no PCA of its own"):
+        PCASplineSpace(0.2, basis="reference").fit(spline, ref.time, ref.hand_qpos, ranges, 6, meta={})

@@ -83,7 +83,7 @@ def test_write_reference_uses_the_reference_cache(tmp_path, monkeypatch):
     def no_synthesis(*args, **kwargs):
         raise AssertionError("synthesised although the reference is cached")
 
-    monkeypatch.setattr(source, "synthesize", no_synthesis)
+    monkeypatch.setattr(type(scene.task.demonstration), "build", no_synthesis)
     out = tmp_path / "apple.npz"
     path = run_job(
         ["task=apple", "job=write_reference", f"job.path={out}", f"job.reference_cache={cache}"], tmp_path

@@ -75,7 +75,9 @@ class Problem:
             )
         spline = UniformBSpline(int(num_control_points), (0.0, track.duration))
         ranges = scene.plant_model.actuator_ctrlrange[scene.index.actuators]
-        theta0 = space.fit(spline, track.hand_times, reference.hand_qpos, ranges, scene.hand.num_root)
+        theta0 = space.fit(
+            spline, track.hand_times, reference.hand_qpos, ranges, scene.hand.num_root, meta=reference.meta
+        )
         cost.bind(scene, track)
         return cls(
             scene=scene,

@@ -23,7 +23,7 @@ import numpy as np
 
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis, PCACurves
-from contactmpc.validate import Ge, checked
+from contactmpc.validate import Ge, OneOf, checked
 
 
 class SplineSpace:
@@ -60,6 +60,7 @@ class SplineSpace:
         hand_qpos: np.ndarray,
         ranges: np.ndarray,
         num_root: int,
+        meta: dict | None = None,
     ) -> np.ndarray:
         """Fit the space to the reference and return the nominal control points.
 
@@ -69,10 +70,13 @@ class SplineSpace:
             hand_qpos: (T, J) reference hand configurations (root DOFs first).
             ranges: (J, 2) actuator control ranges; joint targets are clipped to them.
             num_root: number of root (wrist) DOFs, the first columns of ``hand_qpos``.
+            meta: the reference's ``meta`` (a space may take more than the curves from it, e.g. the
+                PCA that came with the paper's data).
 
         Returns:
             (M, d) nominal control points ``theta``.
         """
+        self.meta = {} if meta is None else meta
         self.ranges = np.asarray(ranges, float)
         self.num_root = int(num_root)
         self.num_fingers = hand_qpos.shape[1] - self.num_root
@@ -141,15 +145,55 @@ class JointSplineSpace(SplineSpace):
 
 
 class PCASplineSpace(SplineSpace):
-    """Finger control points in the principal components of the reference finger curves (paper)."""
+    """Finger control points in the principal components of the reference finger curves (paper).
+
+    Args:
+        basis: ``fit``: the PCA of the reference's finger curves (computed here); ``reference``: the
+            PCA that came with the reference (``meta["paper_pca"]``: the authors' ``center`` and
+            components, imported from their ``.pcmexp``), used as it is (the PC-curves are still fitted
+            to the reference's finger curves in it).
+        sigma2, root_sigma2, whiten, num_components: see :class:`SplineSpace`.
+    """
 
     pca: PCABasis
 
+    @checked
+    def __init__(
+        self,
+        sigma2: Annotated[float, Ge(0)],
+        root_sigma2: Annotated[float, Ge(0)] = 0.0,
+        whiten: bool = False,
+        num_components: Annotated[int, Ge(1)] | None = None,
+        basis: Annotated[str, OneOf("fit", "reference")] = "fit",
+    ) -> None:
+        super().__init__(sigma2, root_sigma2, whiten, num_components)
+        self.basis = basis
+
     def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+        if self.basis == "reference":
+            self.pca = self._reference_basis(fingers)
+            return spline.fit(times, self.pca.to_pc(fingers))
         # PC-curves fitted with the same M (paper §II-A).
         curves = PCACurves.fit(spline, times, fingers, num_components=self.num_components, whiten=self.whiten)
         self.pca = curves.pca
         return curves.pc_control_points
+
+    def _reference_basis(self, fingers: np.ndarray) -> PCABasis:
+        given = self.meta.get("paper_pca")
+        if not given:
+            raise ValueError(
+                "sampler.basis=reference: the reference has no PCA of its own (meta['paper_pca'], "
+                "which the paper tasks' references carry); use sampler.basis=fit"
+            )
+        center = np.asarray(given["center"], float)
+        components = np.asarray(given["components"], float)[: self.num_components]
+        if center.shape != (fingers.shape[1],) or components.shape[1:] != center.shape:
+            raise ValueError(
+                f"the reference's PCA has centre {center.shape} and components {components.shape}, "
+                f"but the hand has {fingers.shape[1]} finger joints"
+            )
+        spread = np.maximum(((fingers - center) @ components.T).std(axis=0), 1e-6)
+        return PCABasis(center, components, spread, whiten=self.whiten)
 
     def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
         return self.pca.from_pc(finger_theta)
