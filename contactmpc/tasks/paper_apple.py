@@ -26,7 +26,8 @@ class PaperAppleTask(PaperTask):
     object_bodies = ("apple_sim",)
     START_OFFSET = (0.0, 0.012, 0.0)
     HANDOFF_TOLERANCE = 0.05
-    view = {"lookat": (0.05, -0.2, 1.05), "distance": 1.3, "azimuth": 120.0, "elevation": -20.0}
+    # their "Recording" camera's direction, closer
+    view = {"lookat": (0.12, -0.25, 1.15), "distance": 1.3, "azimuth": 171.0, "elevation": -15.0}
 
     def add_objects(self, spec) -> None:
         self.add_floor(spec)

@@ -32,7 +32,8 @@ class PaperDoorknobTask(PaperTask):
     KNOB_POS = (-0.047, 0.0, 0.0)  # in the attachment's frame
     KNOB_QUAT = (0.47815212453295514, 0.5128687163825603, -0.5009253359069297, -0.5073559237924161)
     PULL_FRACTION = 0.75
-    view = {"lookat": (-0.3, -0.5, 1.0), "distance": 1.4, "azimuth": 150.0, "elevation": -15.0}
+    # their "Recording" camera's direction, closer
+    view = {"lookat": (-0.25, -0.65, 0.95), "distance": 0.8, "azimuth": 60.0, "elevation": -20.0}
 
     def add_objects(self, spec) -> None:
         self.add_floor(spec)
