@@ -116,7 +116,7 @@ def run_trial(
     record["config"] = config
     path = write_json(out / RECORD_NAME, record)
     logger.info(
-        "%s seed %d: ttf %s, completed %s %s, object error %.1f mm / %.1f deg / %.3f rad (mean), "
+        "%s seed %d: ttf %s, completed %s %s, object error %.1f mm / %.1f deg / %.3f rad or m (mean), "
         "%.1f s simulated in %.1f s (real-time factor %.3f)",
         scene.task.name,
         seed,
