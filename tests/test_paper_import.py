@@ -518,3 +518,50 @@ def test_sampler_can_use_the_references_own_pca(data) -> None:
     )
     with pytest.raises(ValueError, match="no PCA of its own"):
         PCASplineSpace(0.2, basis="reference").fit(spline, ref.time, ref.hand_qpos, ranges, 6, meta={})
+
+
+def test_reference_as_code_reconstructs_with_the_mirrored_upper_triangle(tmp_path: Path) -> None:
+    """basis=reference_as_code maps PC coordinates p to joints as their C++ does: center + A p with
+    A = triu(C) + triu(C, 1)^T in *their* joint order (the aliased in-place transpose), on a random
+    orthonormal C; basis=reference maps them with C^T (the paper)."""
+    from contactmpc.control.samplers import PCASplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    rng = np.random.default_rng(7)
+    hand, obj = _curves(rng)
+    root = _write_data(tmp_path / "d", hand, obj, _frames())
+    comps, _ = np.linalg.qr(rng.normal(size=(16, 16)))
+    center = rng.normal(size=16) * 0.1
+    duration = NUM_FRAMES / pf.MOCAP_FPS
+    write_json(
+        root / "allegro" / "pcsplines" / f"{DEMO}.pcmexp",
+        pcmexp_doc(center, comps, np.zeros((16, hand.shape[1])), duration),
+    )
+    ref = _import(root)
+    mirrored = np.triu(comps) + np.triu(comps, 1).T  # (D, k) in their joint order
+    p = rng.normal(size=(4, 16))
+    theirs = center + p @ mirrored.T  # (4, D) their joint order
+    order = [THEIR_FINGERS.index(j) for j in HAND.joint_names[6:]]
+    spline = UniformBSpline(8, (0.0, ref.duration))
+    ranges = np.tile([-10.0, 10.0], (22, 1))
+    code = PCASplineSpace(0.2, basis="reference_as_code")
+    code.fit(spline, ref.time, ref.hand_qpos, ranges, 6, meta=ref.meta)
+    np.testing.assert_allclose(code.finger_joints(p), theirs[:, order], atol=1e-12)
+    paper = PCASplineSpace(0.2, basis="reference")
+    paper.fit(spline, ref.time, ref.hand_qpos, ranges, 6, meta=ref.meta)
+    np.testing.assert_allclose(paper.finger_joints(p), (center + p @ comps)[:, order], atol=1e-12)
+
+
+def test_frozen_components_get_no_noise() -> None:
+    """frozen_components=6: the authors' code never perturbs PCs 0-5."""
+    from contactmpc.control.samplers import PCASplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    rng = np.random.default_rng(0)
+    times = np.linspace(0, 2, 50)
+    qpos = np.column_stack([np.zeros((50, 6)), rng.normal(size=(50, 16))])
+    space = PCASplineSpace(0.0305, frozen_components=6)
+    space.fit(UniformBSpline(8, (0.0, 2.0)), times, qpos, np.tile([-10.0, 10.0], (22, 1)), 6)
+    std = space.noise_std
+    np.testing.assert_array_equal(std[:12], 0.0)
+    np.testing.assert_allclose(std[12:], math.sqrt(0.0305))

@@ -151,7 +151,13 @@ class PCASplineSpace(SplineSpace):
         basis: ``fit``: the PCA of the reference's finger curves (computed here); ``reference``: the
             PCA that came with the reference (``meta["paper_pca"]``: the authors' ``center`` and
             components, imported from their ``.pcmexp``), used as it is (the PC-curves are still fitted
-            to the reference's finger curves in it).
+            to the reference's finger curves in it); ``reference_as_code``: the same, but PC coordinates
+            are mapped back to joints as the authors' code does, with the mirrored upper triangle of
+            their component matrix (``meta["paper_pca"]["code_components"]``), so even the nominal
+            fingers leave the reference (by up to 1.2 rad on their data).
+        frozen_components: the first this many PCs get no noise. The authors' code lays its noise out
+            over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
+            PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components: see :class:`SplineSpace`.
     """
 
@@ -164,13 +170,21 @@ class PCASplineSpace(SplineSpace):
         root_sigma2: Annotated[float, Ge(0)] = 0.0,
         whiten: bool = False,
         num_components: Annotated[int, Ge(1)] | None = None,
-        basis: Annotated[str, OneOf("fit", "reference")] = "fit",
+        basis: Annotated[str, OneOf("fit", "reference", "reference_as_code")] = "fit",
+        frozen_components: Annotated[int, Ge(0)] = 0,
     ) -> None:
         super().__init__(sigma2, root_sigma2, whiten, num_components)
         self.basis = basis
+        self.frozen_components = int(frozen_components)
+
+    @property
+    def noise_std(self) -> np.ndarray:
+        std = super().noise_std
+        std[self.num_root : self.num_root + self.frozen_components] = 0.0
+        return std
 
     def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
-        if self.basis == "reference":
+        if self.basis != "fit":
             self.pca = self._reference_basis(fingers)
             return spline.fit(times, self.pca.to_pc(fingers))
         # PC-curves fitted with the same M (paper §II-A).
@@ -182,7 +196,7 @@ class PCASplineSpace(SplineSpace):
         given = self.meta.get("paper_pca")
         if not given:
             raise ValueError(
-                "sampler.basis=reference: the reference has no PCA of its own (meta['paper_pca'], "
+                f"sampler.basis={self.basis}: the reference has no PCA of its own (meta['paper_pca'], "
                 "which the paper tasks' references carry); use sampler.basis=fit"
             )
         center = np.asarray(given["center"], float)
@@ -193,7 +207,10 @@ class PCASplineSpace(SplineSpace):
                 f"but the hand has {fingers.shape[1]} finger joints"
             )
         spread = np.maximum(((fingers - center) @ components.T).std(axis=0), 1e-6)
-        return PCABasis(center, components, spread, whiten=self.whiten)
+        decoder = None
+        if self.basis == "reference_as_code":
+            decoder = np.asarray(given["code_components"], float)[: self.num_components]
+        return PCABasis(center, components, spread, whiten=self.whiten, decoder=decoder)
 
     def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
         return self.pca.from_pc(finger_theta)

@@ -42,6 +42,10 @@ class PCABasis:
             an isotropic noise in PC coordinates is shaped like the demonstration's synergies.
         variance: raw (unfloored) per-component variance over the data, shape ``(k,)``; defaults to
             ``spread**2``.
+        decoder: ``(k, D)``, the matrix :meth:`from_pc` maps PC coordinates with in place of the
+            components (``to_pc`` keeps the components). Default: the components. The paper authors' code
+            reconstructs with the mirrored upper triangle of its component matrix, not its transpose
+            (:func:`contactmpc.reference.paper.formats.code_component_matrix`); this reproduces that.
     """
 
     def __init__(
@@ -51,6 +55,7 @@ class PCABasis:
         spread: np.ndarray,
         whiten: bool = False,
         variance: np.ndarray | None = None,
+        decoder: np.ndarray | None = None,
     ) -> None:
         mean = np.asarray(mean, dtype=np.float64)
         components = np.asarray(components, dtype=np.float64)
@@ -66,7 +71,10 @@ class PCABasis:
         self._spread = spread
         self._whiten = bool(whiten)
         self._variance = spread**2 if variance is None else np.asarray(variance, dtype=np.float64)
-        for arr in (self._mean, self._components, self._spread, self._variance):
+        self._decoder = components if decoder is None else np.asarray(decoder, dtype=np.float64)
+        if self._decoder.shape != components.shape:
+            raise ValueError(f"decoder must have the components' shape {components.shape}")
+        for arr in (self._mean, self._components, self._spread, self._variance, self._decoder):
             arr.setflags(write=False)
 
     @classmethod
@@ -160,12 +168,12 @@ class PCABasis:
     def scaled_components(self) -> np.ndarray:
         """Linear part ``W`` of :meth:`from_pc` (``from_pc(z) = z @ W + p``), shape ``(k, D)``.
 
-        ``W = diag(spread) P`` when whitening, else ``P``. A PC-space perturbation ``dz`` moves the
-        joints by ``dz @ W``.
+        ``W = diag(spread) P`` when whitening, else ``P`` (``P`` = the ``decoder``, by default the
+        components). A PC-space perturbation ``dz`` moves the joints by ``dz @ W``.
         """
         if self._whiten:
-            return self._spread[:, None] * self._components
-        return self._components
+            return self._spread[:, None] * self._decoder
+        return self._decoder
 
     def __repr__(self) -> str:
         return f"PCABasis(dim={self.dim}, num_components={self.num_components}, whiten={self._whiten})"

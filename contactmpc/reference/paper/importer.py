@@ -62,6 +62,7 @@ from contactmpc.reference.paper.formats import (
     ContactFrames,
     PCSplines,
     SplineCurves,
+    code_component_matrix,
     evaluate,
     read_contacts,
     read_pcmexp,
@@ -500,9 +501,14 @@ def import_reference(
 
 
 def _pca_meta(pcs: PCSplines, order: list[int]) -> dict:
-    """Their PCA (radians), the component columns in our finger-joint order."""
+    """Their PCA (radians) with the joint columns in our finger-joint order: ``center`` (D,),
+    ``components`` (k, D) (joints = center + p C, the paper's Eq. 3) and ``code_components`` (k, D), the
+    matrix their code reconstructs with instead (the aliased transpose, mirrored in *their* joint order
+    before the columns are reordered)."""
+    code = code_component_matrix(pcs)  # (D, k), rows in their joint order
     return {
         "center": [float(v) for v in pcs.center[order]],
         "components": [[float(v) for v in row] for row in pcs.components[:, order]],
+        "code_components": [[float(v) for v in row] for row in code[order, :].T],
         "num_control_points": pcs.curves.num_control_points,
     }
