@@ -199,6 +199,7 @@ class Config:
     job: Any = None
     preset: Any = None
     variant: Any = None
+    fidelity: Any = None
     experiment: Any = None
     scene: SceneConf = field(default_factory=SceneConf)
     seed: Annotated[int, Ge(0)] = 0

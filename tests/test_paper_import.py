@@ -565,3 +565,41 @@ def test_frozen_components_get_no_noise() -> None:
     std = space.noise_std
     np.testing.assert_array_equal(std[:12], 0.0)
     np.testing.assert_allclose(std[12:], math.sqrt(0.0305))
+
+
+def test_the_authors_cost_contacts_are_the_first_third(data) -> None:
+    """Their residual copies n scalars of a frame's 3n stacked differences: its first floor(n/3)
+    contacts. Frame 3 has three (wrist, wrist, ff_tip): only the first, on the palm; frame 5 has one:
+    none."""
+    root, _, _ = data
+    ref = _import(root)
+    links = list(HAND.link_names)
+    assert ref.meta["paper_code_contacts"][3] == [links.index("palm")]
+    assert ref.meta["paper_code_contacts"][5] == []
+    assert len(ref.meta["paper_code_contacts"]) == ref.num_frames
+
+
+@needs_data
+def test_real_authors_code_fidelity_keeps_a_third_of_the_contacts(scene_for, compose) -> None:
+    """fidelity=authors_code composes their noise, frozen PCs, basis, weights and contact subset; the
+    cost then scores about a third of the expected (step, link) pairs, never one that is not expected."""
+    from hydra.utils import instantiate
+
+    from contactmpc.control.problem import Problem
+    from contactmpc.reference.source import get_reference
+
+    cfg = compose(["task=paper_apple", "fidelity=authors_code"])
+    assert cfg.sampler.sigma2 == pytest.approx(math.radians(10) ** 2)
+    assert (cfg.sampler.frozen_components, cfg.sampler.basis) == (6, "reference_as_code")
+    assert (cfg.cost.lambda_o, cfg.cost.lambda_c, cfg.cost.contact_subset) == (500.0, 2500.0, "authors_code")
+    assert cfg.job.failure_gap == 0.5
+    scene = scene_for("paper_apple")
+    ref = get_reference(scene)
+    space, cost = instantiate(cfg.sampler), instantiate(cfg.cost)
+    problem = Problem.build(scene, ref, space, cost, 1.0, None, None)
+    expected = problem.track.contact_active
+    kept = cost._active
+    assert not (kept & ~expected).any()
+    share = kept.sum() / expected.sum()
+    print(f"\nauthors_code contact term: {share:.2f} of the expected (step, link) pairs")
+    assert 0.15 < share < 0.5

@@ -18,8 +18,9 @@ import numba
 import numpy as np
 
 from contactmpc.control.track import ReferenceTrack
+from contactmpc.reference.data import Reference
 from contactmpc.scene import Scene
-from contactmpc.validate import Ge, checked
+from contactmpc.validate import Ge, OneOf, checked
 
 
 @numba.njit(cache=True, parallel=True)
@@ -76,6 +77,19 @@ class TrackingCost:
         lambda_v: weight of the hand-velocity term.
         rotation_weight: weight of the squared orientation angle (rad^2) against position (m^2).
         articulation_weight: weight of squared articulation errors (rad^2).
+        velocity_joints: ``all`` hand joints in the velocity term, or the ``fingers`` only (the
+            authors' code: ``qvel + 6``, the 16 finger DOFs).
+        contact_subset: which expected contacts enter the contact term: every ``expected`` one (the
+            paper), or ``authors_code``: those of the authors' residual, which copies only the first
+            ``n`` scalars of the ``3n`` stacked differences of a frame's ``n`` contacts, i.e. its first
+            ``floor(n / 3)`` contacts in their file's order (the partial next one is left out); the
+            links they fall on per frame come with the reference (``meta["paper_code_contacts"]``, from
+            the importer of the paper's data).
+
+    The authors' weights (``task_template.xml``: object position 1000, orientation 10, contact 5000,
+    hand velocity 1, each ``0.5 w |r|^2``) are ``lambda_o = 500``, ``rotation_weight = 0.01``,
+    ``lambda_c = 2500``, ``lambda_v = 0.5`` with ``velocity_joints = fingers``; their orientation
+    residual (``mju_subQuat``) is the rotation vector, so ``|r|^2`` is the squared angle, as ours.
     """
 
     terms = ("object", "contact", "velocity")
@@ -88,21 +102,44 @@ class TrackingCost:
         lambda_v: Annotated[float, Ge(0)] = 0.01,
         rotation_weight: Annotated[float, Ge(0)] = 0.1,
         articulation_weight: Annotated[float, Ge(0)] = 1.0,
+        velocity_joints: Annotated[str, OneOf("all", "fingers")] = "all",
+        contact_subset: Annotated[str, OneOf("expected", "authors_code")] = "expected",
     ) -> None:
         self.lambda_o = float(lambda_o)
         self.lambda_c = float(lambda_c)
         self.lambda_v = float(lambda_v)
         self.rotation_weight = float(rotation_weight)
         self.articulation_weight = float(articulation_weight)
+        self.velocity_joints = velocity_joints
+        self.contact_subset = contact_subset
         self.scene: Scene | None = None
         self.track: ReferenceTrack | None = None
 
-    def bind(self, scene: Scene, track: ReferenceTrack) -> None:
-        """Attach the scene (sensor addresses, object layout) and the reference track."""
+    def bind(self, scene: Scene, track: ReferenceTrack, reference: Reference | None = None) -> None:
+        """Attach the scene (sensor addresses, object layout) and the reference track (and the reference
+        the track was built from, which ``contact_subset="authors_code"`` needs).
+
+        Raises:
+            ValueError: ``contact_subset="authors_code"`` for a reference without the authors' contact
+                order (``meta["paper_code_contacts"]``).
+        """
         self.scene = scene
         self.track = track
         self._qo = as_index(scene.index.object_qo)
-        self._vel = as_index(scene.index.hand_vel)
+        vel = scene.index.hand_vel
+        self._vel = as_index(vel[scene.hand.num_root :] if self.velocity_joints == "fingers" else vel)
+        self._active = track.contact_active
+        if self.contact_subset == "authors_code":
+            links = None if reference is None else reference.meta.get("paper_code_contacts")
+            if links is None:
+                raise ValueError(
+                    "cost.contact_subset=authors_code: the reference has no record of the authors' contact "
+                    "order (meta['paper_code_contacts'], which the paper tasks' references carry)"
+                )
+            mask = np.zeros(reference.contact_active.shape, bool)
+            for f, ls in enumerate(links):
+                mask[f, ls] = True
+            self._active = track.contact_active & mask[track.frame]
 
     def object_qpos(self, sensordata: np.ndarray) -> np.ndarray:
         """(..., n_o) the object configuration read from sensordata (..., nsensordata)."""
@@ -125,7 +162,7 @@ class TrackingCost:
         """
         idx, tr = self.scene.index, self.track
         out = np.zeros(sensordata.shape[:2])
-        h, link = np.nonzero(tr.contact_active[window])
+        h, link = np.nonzero(self._active[window])
         if h.size == 0:
             return out
         body = tr.contact_object_body[window][h, link]

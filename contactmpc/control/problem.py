@@ -78,7 +78,7 @@ class Problem:
         theta0 = space.fit(
             spline, track.hand_times, reference.hand_qpos, ranges, scene.hand.num_root, meta=reference.meta
         )
-        cost.bind(scene, track)
+        cost.bind(scene, track, reference)
         return cls(
             scene=scene,
             track=track,

@@ -32,6 +32,7 @@ class ReferenceTrack:
         contact_link_point: (N, L, 3) link-local contact points.
         contact_object_point: (N, L, 3) object-local contact points.
         contact_object_body: (N, L) index into the task's object bodies.
+        frame: (N,) the reference frame each grid step takes its contacts from.
     """
 
     dt: float
@@ -44,6 +45,7 @@ class ReferenceTrack:
     contact_link_point: np.ndarray
     contact_object_point: np.ndarray
     contact_object_body: np.ndarray
+    frame: np.ndarray
 
     @classmethod
     def build(
@@ -80,6 +82,7 @@ class ReferenceTrack:
             contact_link_point=reference.contact_link_point[frame],
             contact_object_point=reference.contact_object_point[frame],
             contact_object_body=reference.contact_object_body[frame],
+            frame=frame,
         )
 
     @property

@@ -39,6 +39,9 @@ How each is turned into ours (:func:`import_reference`):
   of the same name without the ``allegro_`` prefix. A link with several contacts in a frame gets their
   mean (the reference keeps one point per link and frame, paper section II-A); the object points are
   in the frame of the task's object body.
+- **Their cost's contacts.** Their contact residual keeps only the first ``floor(n / 3)`` of a frame's
+  ``n`` contacts (in their file's order); ``meta["paper_code_contacts"]`` lists per frame the links those
+  fall on, for :class:`~contactmpc.control.cost.TrackingCost`'s ``contact_subset="authors_code"``.
 - **PCA.** Their ``center`` and components, columns put in our finger-joint order, are kept in
   ``meta["paper_pca"]`` (radians) so that a sampler can use their basis as well as one recomputed from
   the curves.
@@ -468,6 +471,12 @@ def import_reference(
         contacts, link_of_body, len(link_names), files.contacts, names
     )
 
+    # the links of the contacts their residual keeps: the first floor(n / 3) of a frame's n, in file order
+    code_contacts = []
+    for f in range(num_f):
+        kept = contacts.frame(f).body_index[: contacts.frame_counts[f] // 3]
+        code_contacts.append(sorted({link_of_body[int(b)][0] for b in kept}))
+
     # their PCA, columns in our finger order
     order = [theirs.finger_joints.index(j) for j in ours]
     meta = {
@@ -483,6 +492,7 @@ def import_reference(
         "mount": [float(v) for v in mount],
         "paper_pca": _pca_meta(pcs, order),
         "clipped": clipped,
+        "paper_code_contacts": code_contacts,
     }
     return Reference(
         time=time,
