@@ -1,0 +1,209 @@
+"""Fig. 3 on the paper's tasks under both readings: the paper's text and the authors' code, side by side.
+
+Reads the records of a sweep such as ``experiment=fig3_paper_lite`` and tells each trial's *fidelity*
+from its config (the ``fidelity`` node, matched against the members of ``conf/fidelity/``); the fidelity
+becomes the trials' ``condition``, so the tables and tests of :mod:`analysis.report` keep the two readings
+apart (a variant is compared with ``full`` under the same fidelity; Holm's correction runs over every test
+of both). Task names lose their ``paper_`` prefix so that they sort as in the paper (doorknob, apple,
+bottle, stapler).
+
+Outputs (:func:`write_fig3`): ``fig3_fidelities.png`` (one panel per fidelity, same axes, the paper's
+colours, each box labelled with its completion count), ``fig3_summary.csv`` and ``fig3_tests.csv``
+(:func:`analysis.report.summary_table` and :func:`analysis.report.significance_tests`), ``fig3.md``.
+
+Command line::
+
+    python -m analysis.paper_fig3 SWEEP_DIR [SWEEP_DIR ...] --out-dir DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+from omegaconf import OmegaConf
+
+from analysis._cli import run, sweep_parser
+from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, load_records, ok_trials, ordered
+from analysis.figures import VARIANT_COLORS, VARIANT_LABELS
+from analysis.report import significance_tests, summary_table
+from contactmpc.records import RECORD_NAME
+
+FIDELITY_DIR = Path(__file__).resolve().parent.parent / "conf" / "fidelity"
+#: Order of the fidelities in tables and figures.
+FIDELITY_ORDER: tuple[str, ...] = ("paper", "authors_code")
+FIDELITY_TITLES = {"paper": "as the paper states it", "authors_code": "as the authors' code runs it"}
+
+
+def fidelities(directory: Path = FIDELITY_DIR) -> dict[str, dict]:
+    """The members of the ``fidelity`` config group: name -> values."""
+    return {p.stem: OmegaConf.to_container(OmegaConf.load(p)) for p in sorted(directory.glob("*.yaml"))}
+
+
+def fidelity_of(config: dict | None, known: dict[str, dict]) -> str:
+    """The name of the fidelity whose values a record's config holds (``custom`` if none matches, ``paper``
+    for a record from before the group existed)."""
+    node = (config or {}).get("fidelity")
+    if node is None:
+        return "paper"
+    for name, values in known.items():
+        if all(json.dumps(node.get(k)) == json.dumps(v) for k, v in values.items()):
+            return name
+    return "custom"
+
+
+def load(*dirs: str | Path) -> pd.DataFrame:
+    """The records of ``dirs`` (:func:`analysis.aggregate.load_records`) with a ``fidelity`` column, the
+    fidelity as each trial's ``condition`` and the ``paper_`` prefix dropped from task names."""
+    df = load_records(*dirs)
+    known = fidelities()
+    df["fidelity"] = [
+        fidelity_of(json.loads(Path(p).read_text()).get("config"), known) for p in df["record_path"]
+    ]
+    df["condition"] = df["fidelity"]
+    df["task"] = df["task"].str.removeprefix("paper_")
+    return df
+
+
+def fig3(df: pd.DataFrame, path: str | Path | None = None) -> Figure:
+    """TTF box plots per task and variant, one panel per fidelity on the same axes (paper Fig. 3 layout:
+    tasks top to bottom in the paper's order, the paper's colours), each box labelled ``completed/n``."""
+    good = ok_trials(df)
+    tasks = ordered(df["task"], TASK_ORDER)
+    variants = ordered(df["variant"], VARIANT_ORDER)
+    fids = ordered(df["fidelity"], FIDELITY_ORDER)
+    fig = Figure(figsize=(5.2 * len(fids), 1.1 + 1.2 * len(tasks)), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, len(fids), sharex=True, sharey=True, squeeze=False)[0]
+    width = 0.8 / max(1, len(variants))
+    for ax, fid in zip(axes, fids, strict=True):
+        for i, task in enumerate(tasks):
+            for j, variant in enumerate(variants):
+                sel = (good["task"] == task) & (good["variant"] == variant) & (good["fidelity"] == fid)
+                ttf = 100.0 * good.loc[sel, "ttf"].dropna().to_numpy(float)
+                if not len(ttf):
+                    continue
+                y = i + (j - (len(variants) - 1) / 2) * width
+                color = VARIANT_COLORS.get(variant, "0.5")
+                box = ax.boxplot(
+                    ttf,
+                    positions=[y],
+                    widths=width * 0.85,
+                    orientation="horizontal",
+                    patch_artist=True,
+                    manage_ticks=False,
+                )
+                for patch in box["boxes"]:
+                    patch.set(facecolor=color, alpha=0.55, edgecolor=color)
+                for key in ("whiskers", "caps"):
+                    for line in box[key]:
+                        line.set(color=color)
+                for line in box["medians"]:
+                    line.set(color="orange", linewidth=2.5)
+                ax.scatter(ttf, np.full(len(ttf), y), s=10, color=color, zorder=3)
+                done = good.loc[sel, "completed"].dropna()
+                ax.text(
+                    103,
+                    y,
+                    f"{int(done.sum())}/{len(done)}",
+                    va="center",
+                    fontsize=7,
+                    color=color,
+                    clip_on=False,
+                )
+        ax.set_title(f"fidelity={fid}: {FIDELITY_TITLES.get(fid, fid)}", fontsize=9)
+        ax.set_xlim(-3, 112)
+        ax.set_xlabel("time to failure, % of the contact span (text: trials completed)")
+        ax.set_yticks(range(len(tasks)), tasks)
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].invert_yaxis()  # shared: once for all panels; tasks top to bottom
+    handles = [
+        Patch(color=VARIANT_COLORS.get(v, "0.5"), alpha=0.55, label=VARIANT_LABELS.get(v, v))
+        for v in variants
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(variants), fontsize=8)
+    if path is not None:
+        fig.savefig(path, dpi=130)
+    return fig
+
+
+def markdown(df: pd.DataFrame) -> str:
+    """The table per task x variant x fidelity (completion, median TTF and IQR, errors) and the tests."""
+    summary = _in_order(summary_table(df), "condition")
+    tests = _in_order(significance_tests(df), "condition")
+    lines = [
+        "| task | variant | fidelity | completed | median TTF % (IQR) | mean object error | errors |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in summary.itertuples(index=False):
+        done = f"{round(r.completion_rate * r.n)}/{r.n}" if r.n else "0/0"
+        ttf = f"{100 * r.ttf_median:.1f} ({100 * r.ttf_q25:.1f}–{100 * r.ttf_q75:.1f})" if r.n else "—"
+        err = (
+            f"{1000 * r.object_position_error_mean:.0f} mm"
+            if np.isfinite(r.object_position_error_mean)
+            else "—"
+        )
+        lines.append(f"| {r.task} | {r.variant} | {r.condition} | {done} | {ttf} | {err} | {r.errors} |")
+    lines += [
+        "",
+        "Mann–Whitney U (two-sided) of TTF, `full` against each ablation, per task and fidelity "
+        "(Holm over all):",
+        "",
+        "| task | fidelity | ablation | n | median full / ablation % | U | p | Holm p |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in tests.itertuples(index=False):
+        lines.append(
+            f"| {r.task} | {r.condition} | {r.variant} | {r.n_ref} / {r.n_other} | "
+            f"{100 * r.median_ref:.1f} / {100 * r.median_other:.1f} | "
+            f"{r.U:.1f} | {r.p:.3g} | {r.p_holm:.3g} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _in_order(table: pd.DataFrame, fidelity: str) -> pd.DataFrame:
+    """Rows in the paper's task order, then variant order, then :data:`FIDELITY_ORDER`."""
+    keys = {
+        "task": ordered(table["task"], TASK_ORDER),
+        "variant": ordered(table["variant"], VARIANT_ORDER),
+        fidelity: ordered(table[fidelity], FIDELITY_ORDER),
+    }
+    rank = {k: {v: i for i, v in enumerate(vals)} for k, vals in keys.items()}
+    return table.sort_values(list(keys), key=lambda col: col.map(rank[col.name]), kind="stable")
+
+
+def write_fig3(df: pd.DataFrame, out_dir: str | Path) -> Path:
+    """Write the figure, the two CSV tables and the markdown report into ``out_dir``; returns it."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    fig3(df, out / "fig3_fidelities.png")
+    _in_order(summary_table(df), "condition").to_csv(out / "fig3_summary.csv", index=False)
+    _in_order(significance_tests(df), "condition").to_csv(out / "fig3_tests.csv", index=False)
+    (out / "fig3.md").write_text(markdown(df))
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = sweep_parser("python -m analysis.paper_fig3", "Fig. 3 of a sweep under both fidelities.")
+    parser.add_argument("--out-dir", required=True, help="where to write the figure and tables")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+
+    def action(df: pd.DataFrame) -> str:
+        out = write_fig3(df, args.out_dir)
+        return f"wrote {out / 'fig3_fidelities.png'}, fig3_summary.csv, fig3_tests.csv, fig3.md"
+
+    return run(args.sweep_dirs, action, (ValueError, OSError), load=load, record_name=RECORD_NAME)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
