@@ -50,7 +50,7 @@ from contactmpc.runs import (  # noqa: E402
 
 CONF_DIR = Path(__file__).resolve().parent / "conf"
 
-LABELS = ("task", "hand", "cost", "sampler", "planner", "variant", "preset", "experiment")
+LABELS = ("task", "hand", "cost", "sampler", "planner", "variant", "preset", "experiment", "perturbation")
 STATE_DIR = ".contactmpc"
 """In a sweep's directory: one folder per running multirun with the outcomes of its jobs."""
 SWEEP_STATE_ENV = "CONTACTMPC_SWEEP_STATE"

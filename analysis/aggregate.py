@@ -58,7 +58,13 @@ CONFIG_COLUMNS: tuple[str, ...] = ("num_samples", "horizon", "replan_period")
 VOLATILE_CONFIG_KEYS: tuple[str, ...] = NOT_THE_TRIAL
 #: Nodes the trial job copies from the root by interpolation (``conf/job/trial.yaml``): they vary with
 #: their originals, so they are left out of the identity and of the condition columns.
-COPIED_CONFIG_KEYS: tuple[str, ...] = ("job.sampler", "job.cost", "job.planner", "job.duration")
+COPIED_CONFIG_KEYS: tuple[str, ...] = (
+    "job.sampler",
+    "job.cost",
+    "job.planner",
+    "job.duration",
+    "job.perturbation",
+)
 #: Config choices that are part of a trial's identity besides its config (records name them; a
 #: record's config is enough to tell them apart, these make sure of it).
 IDENTITY_LABELS: tuple[str, ...] = ("task", "hand", "cost", "sampler", "planner")

@@ -200,6 +200,7 @@ class Config:
     preset: Any = None
     variant: Any = None
     fidelity: Any = None
+    perturbation: Any = None
     experiment: Any = None
     scene: SceneConf = field(default_factory=SceneConf)
     seed: Annotated[int, Ge(0)] = 0

@@ -18,6 +18,7 @@ from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
 from contactmpc.control.problem import Problem
 from contactmpc.control.samplers import SplineSpace
+from contactmpc.perturbations import Perturbation, PerturbationDraw
 from contactmpc.reference.data import Reference
 from contactmpc.scene import Scene
 from contactmpc.validate import Ge, Gt, checked
@@ -72,6 +73,8 @@ class Trial:
             suggestion (``num_control_points``) or 4 per second of slowed reference.
         duration: simulated control time (s); ``None`` = the slowed reference's duration.
         progress: show a progress bar.
+        perturbation: plant-only changes drawn from the seed (:mod:`contactmpc.perturbations`);
+            ``None`` is none. The draw is :attr:`draw` once :meth:`run` has started.
     """
 
     @checked
@@ -86,8 +89,11 @@ class Trial:
         num_control_points: int | None = None,
         duration: Annotated[float, Gt(0)] | None = None,
         progress: bool = True,
+        perturbation: Perturbation | None = None,
     ) -> None:
         self.scene, self.reference, self.planner = scene, reference, planner
+        self.perturbation = Perturbation() if perturbation is None else perturbation
+        self.draw: PerturbationDraw | None = None
         self.seed = int(seed)
         self.progress = progress
         self.problem = Problem.build(
@@ -108,7 +114,9 @@ class Trial:
             PlantDiverged: if the plant becomes unstable.
         """
         scene, planner = self.scene, self.planner
-        m = scene.plant_model
+        prng = Perturbation.generator(self.seed)
+        draw = self.draw = self.perturbation.draw(prng, self.duration, self.seed)
+        m = draw.plant_model(scene)  # the scene's plant itself unless the draw changes it
         d = mujoco.MjData(m)
         rng = np.random.default_rng(self.seed)
         idx = scene.index
@@ -116,11 +124,12 @@ class Trial:
         per_plan = max(1, int(round(planner.replan_period / dt)))
         n_steps = int(round(self.duration / dt))
         hand0 = planner.targets(np.array([0.0]))[0]
-        scene.reset(
-            d, hand_qpos=hand0, object_qpos=scene.task.start_object_qpos(self.reference.object_qpos[0])
-        )
+        qo0 = draw.initial_object_qpos(scene, scene.task.start_object_qpos(self.reference.object_qpos[0]))
+        scene.reset(d, hand_qpos=hand0, object_qpos=qo0)
         nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         state = np.empty(nstate)
+        earlier = None  # the state of one replan period earlier (draw.delay)
+        pushed = int(idx.object_bodies[0])
         log = TrialLog()
         offsets = np.arange(per_plan) * dt
         bar = tqdm(
@@ -131,12 +140,20 @@ class Trial:
                 t = k * dt
                 mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
                 state[0] = t  # rollouts run on the control clock
-                info = planner.plan(t, state, rng)
+                seen = draw.observe(scene, state, prng)
+                if draw.delay:
+                    seen, earlier = (seen if earlier is None else earlier), seen.copy()
+                info = planner.plan(t, seen, rng)
                 targets = planner.targets(t + offsets)
                 self._log(log, d, t, targets[0], info)
                 for j in range(min(per_plan, n_steps - k)):
                     d.ctrl[idx.actuators] = targets[j]
+                    force = draw.push_force(t + j * dt, t + (j + 1) * dt, dt) if draw.push_times else None
+                    if force is not None:
+                        d.xfrc_applied[pushed, :3] = force
                     mujoco.mj_step(m, d)
+                    if force is not None:
+                        d.xfrc_applied[pushed, :3] = 0.0
                 if any(w.number for w in d.warning) or not np.isfinite(d.qpos).all():
                     raise PlantDiverged(f"plant diverged at t={d.time:.3f}s")
                 bar.update(min(per_plan, n_steps - k))

@@ -15,6 +15,7 @@ from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
 from contactmpc.control.samplers import SplineSpace
 from contactmpc.metrics import time_to_failure
+from contactmpc.perturbations import Perturbation
 from contactmpc.records import (
     RECORD_NAME,
     SERIES_NAME,
@@ -49,6 +50,7 @@ def run_trial(
     reference_cache: str | None = "outputs/cache/references",
     video: Annotated[str, OneOf("gif", "mp4")] | None = None,
     video_speed: Annotated[float, Gt(0)] = 1.0,
+    perturbation: Perturbation | None = None,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -80,6 +82,8 @@ def run_trial(
         video: ``"gif"`` or ``"mp4"`` to render the trial next to its record (``trial.<ext>``);
             ``None`` renders nothing.
         video_speed: playback speed of the video relative to control time.
+        perturbation: plant-only changes drawn from the seed (:mod:`contactmpc.perturbations`); the
+            drawn values go into the record (``perturbation``). ``None``: none.
         config: the resolved config, stored in the record.
         labels: names of the config choices (task, hand, cost, sampler, planner) for the record.
 
@@ -92,12 +96,25 @@ def run_trial(
     try:
         scene = make_scene()
         reference = get_reference(scene, reference_cache)
-        trial = Trial(scene, reference, sampler, cost, planner, seed, num_control_points, duration, progress)
+        trial = Trial(
+            scene,
+            reference,
+            sampler,
+            cost,
+            planner,
+            seed,
+            num_control_points,
+            duration,
+            progress,
+            perturbation,
+        )
         loop0 = time.perf_counter()
         try:
             log = trial.run()
         finally:
             planner.close()
+            if trial.draw is not None:
+                record["perturbation"] = trial.draw.record()
         series = log.arrays()
         wall = time.perf_counter() - loop0  # the closed loop alone, for the real-time factor
         record.update(summarize(series, trial, wall, failure_gap, failure_min_expected, milestone_hold))

@@ -1,0 +1,133 @@
+"""Plant-only perturbations (contactmpc.perturbations): seeded draws, only the plant changes, none is none."""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from contactmpc.control.cost import TrackingCost
+from contactmpc.control.planners import PredictiveSampling
+from contactmpc.control.samplers import PCASplineSpace
+from contactmpc.perturbations import Perturbation, PerturbationDraw
+from contactmpc.trial import Trial
+from tests.helpers import static_reference
+
+EVERYTHING = Perturbation(
+    object_offset=0.02,
+    object_yaw=0.3,
+    mass_scale=0.3,
+    friction_scale=0.3,
+    size_scale=0.1,
+    gain_scale=0.3,
+    pushes=2,
+    push_impulse=0.05,
+    observation_noise=0.005,
+    delay=True,
+)
+
+
+def _run(scene, ref, seed: int, perturbation=None, duration: float = 0.4):
+    planner = PredictiveSampling(num_samples=8, horizon=0.2, replan_period=0.05, nthread=1)
+    trial = Trial(
+        scene, ref, PCASplineSpace(0.2), TrackingCost(lambda_v=0.0), planner, seed,
+        duration=duration, progress=False, perturbation=perturbation,
+    )  # fmt: skip
+    try:
+        return trial, trial.run().arrays()
+    finally:
+        planner.close()
+
+
+def test_draws_are_seeded_recorded_and_none_draws_nothing() -> None:
+    a = EVERYTHING.draw(Perturbation.generator(3), 10.0, 3)
+    b = EVERYTHING.draw(Perturbation.generator(3), 10.0, 3)
+    c = EVERYTHING.draw(Perturbation.generator(4), 10.0, 4)
+    assert a == b and a != c
+    assert np.linalg.norm(a.object_offset) == pytest.approx(0.02) and a.object_offset[2] == 0.0
+    assert 0.7 <= a.mass_scale <= 1.3 and 0.9 <= a.size_scale <= 1.1 and abs(a.object_yaw) <= 0.3
+    assert len(a.push_times) == 2 and all(0 <= t < 10 for t in a.push_times)
+    np.testing.assert_allclose(np.linalg.norm(a.push_impulses, axis=1), 0.05)
+    assert json.loads(json.dumps(a.record()))["push_times"] == list(a.push_times)
+    rng = Perturbation.generator(3)
+    before = rng.bit_generator.state
+    assert Perturbation().draw(rng, 10.0, 3) == PerturbationDraw(seed=(3, 1))
+    assert rng.bit_generator.state == before  # nothing drawn, no number taken
+
+
+def test_no_perturbation_is_bit_identical(scene_for) -> None:
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.5, frames=11)
+    _, plain = _run(scene, ref, 5)
+    trial, none = _run(scene, ref, 5, Perturbation())
+    assert trial.draw.plant_model(scene) is scene.plant_model
+    for key in plain:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(plain[key], none[key], err_msg=key)
+
+
+def test_physics_change_only_the_plant(scene_for) -> None:
+    scene = scene_for("apple")
+    planner_before = {
+        f: getattr(scene.planner_model, f).copy()
+        for f in ("body_mass", "geom_size", "geom_friction", "actuator_gainprm")
+    }
+    plant_before = scene.plant_model.body_mass.copy()
+    draw = Perturbation(mass_scale=0.5, friction_scale=0.5, size_scale=0.2, gain_scale=0.5).draw(
+        Perturbation.generator(1), 1.0, 1
+    )
+    plant = draw.plant_model(scene)
+    body = scene.index.object_bodies[0]
+    # the apple's geoms have explicit masses: a size change keeps them, the mass scale scales them
+    assert plant.body_mass[body] == pytest.approx(plant_before[body] * draw.mass_scale, rel=1e-9)
+    apple = mujoco.mj_name2id(plant, mujoco.mjtObj.mjOBJ_GEOM, "apple_col")
+    np.testing.assert_allclose(plant.geom_size[apple], scene.plant_model.geom_size[apple] * draw.size_scale)
+    np.testing.assert_allclose(
+        plant.geom_friction[apple, 0], scene.plant_model.geom_friction[apple, 0] * draw.friction_scale
+    )
+    finger = scene.index.actuators[scene.hand.num_root]
+    assert plant.actuator_gainprm[finger, 0] == pytest.approx(
+        scene.plant_model.actuator_gainprm[finger, 0] * draw.gain_scale
+    )
+    assert plant.actuator_biasprm[finger, 1] == pytest.approx(
+        scene.plant_model.actuator_biasprm[finger, 1] * draw.gain_scale
+    )
+    wrist = scene.index.actuators[0]
+    assert plant.actuator_gainprm[wrist, 0] == scene.plant_model.actuator_gainprm[wrist, 0]
+    for field, value in planner_before.items():  # the planner's model and the scene's plant untouched
+        np.testing.assert_array_equal(getattr(scene.planner_model, field), value, err_msg=field)
+    np.testing.assert_array_equal(scene.plant_model.body_mass, plant_before)
+
+
+def test_every_perturbation_runs_and_moves_the_plant(scene_for) -> None:
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.5, frames=11)
+    _, plain = _run(scene, ref, 2)
+    trial, log = _run(scene, ref, 2, EVERYTHING)
+    draw = trial.draw
+    start = log["object_qpos"][0]
+    np.testing.assert_allclose(start[:2] - plain["object_qpos"][0][:2], draw.object_offset[:2], atol=2e-3)
+    assert not np.array_equal(log["hand_target"], plain["hand_target"])
+    assert np.isfinite(log["object_qpos"]).all()
+
+
+def test_a_push_moves_the_object(scene_for) -> None:
+    scene = scene_for("apple")
+    draw = PerturbationDraw(push_times=(0.1,), push_impulses=((0.5, 0.0, 0.0),))
+    dt = scene.plant_model.opt.timestep
+    np.testing.assert_allclose(draw.push_force(0.1, 0.1 + dt, dt), [0.5 / dt, 0.0, 0.0])
+    assert draw.push_force(0.0, dt, dt) is None
+
+
+def test_observation_noise_touches_only_the_objects_configuration(scene_for) -> None:
+    scene = scene_for("apple")
+    d = scene.make_data()
+    state = np.empty(mujoco.mj_stateSize(scene.plant_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(scene.plant_model, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    seen = PerturbationDraw(observation_noise=0.01).observe(scene, state, np.random.default_rng(0))
+    changed = np.flatnonzero(seen != state)
+    assert set(changed) <= set(1 + scene.index.object_qpos) and len(changed) >= 3
+    quat = seen[1 + scene.index.object_qpos[3:7]]
+    assert np.linalg.norm(quat) == pytest.approx(1.0)
