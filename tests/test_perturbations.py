@@ -131,3 +131,20 @@ def test_observation_noise_touches_only_the_objects_configuration(scene_for) -> 
     assert set(changed) <= set(1 + scene.index.object_qpos) and len(changed) >= 3
     quat = seen[1 + scene.index.object_qpos[3:7]]
     assert np.linalg.norm(quat) == pytest.approx(1.0)
+
+
+def test_wrist_noise_per_axis() -> None:
+    """root_sigma2 on the wrist slides, root_rotation_sigma2 on its hinges (None: the same for both)."""
+    from contactmpc.control.samplers import JointSplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    times = np.linspace(0, 1, 20)
+    qpos = np.random.default_rng(0).normal(size=(20, 22))
+    ranges = np.tile([-10.0, 10.0], (22, 1))
+    space = JointSplineSpace(0.2, root_sigma2=1e-4, root_rotation_sigma2=0.01)
+    space.fit(UniformBSpline(6, (0.0, 1.0)), times, qpos, ranges, 6)
+    np.testing.assert_allclose(space.noise_std[:6], [0.01] * 3 + [0.1] * 3)
+    np.testing.assert_allclose(space.noise_std[6:], np.sqrt(0.2))
+    same = JointSplineSpace(0.2, root_sigma2=1e-4)
+    same.fit(UniformBSpline(6, (0.0, 1.0)), times, qpos, ranges, 6)
+    np.testing.assert_allclose(same.noise_std[:6], 0.01)

@@ -31,9 +31,12 @@ class SplineSpace:
 
     Args:
         sigma2: noise variance on every finger coordinate (PC or joint), in the space's units.
-        root_sigma2: noise variance on the root (wrist) DOFs; the paper uses 0.
+        root_sigma2: noise variance on the root (wrist) DOFs; the paper uses 0. With
+            ``root_rotation_sigma2`` set, it is the variance of the wrist *slides* only (m^2).
         whiten: divide PC coordinates by their spread over the reference (PCA space only).
         num_components: number of PCs kept (PCA space only); ``None`` keeps one per finger joint.
+        root_rotation_sigma2: noise variance on the wrist *hinges* (rad^2): the root DOFs after the first
+            three (the floating wrist's x, y, z slides); ``None``: ``root_sigma2``, as for the slides.
     """
 
     @checked
@@ -43,9 +46,11 @@ class SplineSpace:
         root_sigma2: Annotated[float, Ge(0)] = 0.0,
         whiten: bool = False,
         num_components: Annotated[int, Ge(1)] | None = None,
+        root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
     ) -> None:
         self.sigma2 = float(sigma2)
         self.root_sigma2 = float(root_sigma2)
+        self.root_rotation_sigma2 = None if root_rotation_sigma2 is None else float(root_rotation_sigma2)
         self.whiten = bool(whiten)
         self.num_components = num_components
         self.ranges: np.ndarray | None = None
@@ -101,6 +106,8 @@ class SplineSpace:
         """(d,) standard deviation of the sampling noise per column of ``theta``."""
         std = np.full(self.dim, np.sqrt(self.sigma2))
         std[: self.num_root] = np.sqrt(self.root_sigma2)
+        if self.root_rotation_sigma2 is not None:
+            std[3 : self.num_root] = np.sqrt(self.root_rotation_sigma2)
         return std
 
     # --- evaluation ---------------------------------------------------------------------------
@@ -158,7 +165,7 @@ class PCASplineSpace(SplineSpace):
         frozen_components: the first this many PCs get no noise. The authors' code lays its noise out
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
-        sigma2, root_sigma2, whiten, num_components: see :class:`SplineSpace`.
+        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2: see :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -172,8 +179,9 @@ class PCASplineSpace(SplineSpace):
         num_components: Annotated[int, Ge(1)] | None = None,
         basis: Annotated[str, OneOf("fit", "reference", "reference_as_code")] = "fit",
         frozen_components: Annotated[int, Ge(0)] = 0,
+        root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
     ) -> None:
-        super().__init__(sigma2, root_sigma2, whiten, num_components)
+        super().__init__(sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2)
         self.basis = basis
         self.frozen_components = int(frozen_components)
 
