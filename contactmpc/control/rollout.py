@@ -79,13 +79,15 @@ class RolloutEngine:
         self.close()
 
     def run(
-        self, initial_state: np.ndarray, controls: np.ndarray
+        self, initial_state: np.ndarray, controls: np.ndarray, models: list[mujoco.MjModel] | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Roll out ``controls`` from ``initial_state``.
 
         Args:
             initial_state: (nstate,) full-physics state (``mjSTATE_FULLPHYSICS``: time, qpos, qvel, ...).
             controls: (S, H, nu) controls; row h is applied during step h.
+            models: (S,) one model per rollout (variants of :attr:`model`, same sizes); ``None``: the
+                engine's model for all.
 
         Returns:
             state: (S, H, nstate) the state after each step.
@@ -102,7 +104,7 @@ class RolloutEngine:
         state, sensordata = self._buffers[key]
         x0 = np.broadcast_to(initial_state, (S, self.nstate))
         self.pool.rollout(
-            self.model,
+            self.model if models is None else models,
             self.datas,
             initial_state=np.ascontiguousarray(x0),
             control=np.ascontiguousarray(controls, dtype=np.float64),

@@ -21,6 +21,7 @@ import numpy as np
 
 from contactmpc.control.cost import as_index
 from contactmpc.control.problem import Problem
+from contactmpc.control.robust import ModelEnsemble
 from contactmpc.control.rollout import RolloutEngine
 from contactmpc.validate import Ge, Gt, checked
 
@@ -59,6 +60,8 @@ class Planner:
         nthread: rollout threads; ``None`` = the CPUs this process may use (its affinity mask and
             cgroup quota, :func:`~contactmpc.control.rollout.available_cpus`), so a Slurm job with
             8 CPUs on a 64-core node starts 8.
+        robust: score every candidate under an ensemble of randomised planning models and a risk
+            measure (:class:`~contactmpc.control.robust.ModelEnsemble`); ``None``: the nominal model.
     """
 
     needs_rollouts = True
@@ -70,8 +73,11 @@ class Planner:
         horizon: Annotated[float, Gt(0)] = 2.5,
         replan_period: Annotated[float, Gt(0)] = 0.01,
         nthread: Annotated[int, Ge(1)] | None = None,
+        robust: ModelEnsemble | None = None,
     ) -> None:
         self.num_samples = int(num_samples)
+        self.robust = robust
+        self._models: list | None = None
         self.horizon = float(horizon)
         self.replan_period = float(replan_period)
         self.nthread = nthread
@@ -116,6 +122,8 @@ class Planner:
         self._actuators = as_index(problem.scene.index.actuators)
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
+        if self.robust is not None:
+            self._models = self.robust.build(problem.scene)
 
     def close(self) -> None:
         """Release the rollout threads."""
@@ -160,12 +168,21 @@ class Planner:
             diverged: (S,) bool.
         """
         ctrl = self.controls(thetas, self.basis(t))
-        _, sensordata, diverged = self.engine.run(state, ctrl)
+        models = None
+        if self._models is not None:  # every candidate under each of the K models: (K * S) rollouts
+            num_models, num_cand = len(self._models), len(thetas)
+            ctrl = np.concatenate([ctrl] * num_models, axis=0)
+            models = [m for m in self._models for _ in range(num_cand)]
+        _, sensordata, diverged = self.engine.run(state, ctrl, models)
         window = self.problem.track.window(t, self.steps)
         n = window.stop - window.start
         terms = {k: v.sum(axis=-1) for k, v in self.problem.cost(sensordata[:, :n], window).items()}
         total = sum(terms.values())
         total = np.where(diverged | ~np.isfinite(total), np.inf, total)
+        if models is not None:
+            total = self.robust.aggregate(total.reshape(num_models, num_cand))
+            terms = {name: v.reshape(num_models, num_cand).mean(axis=0) for name, v in terms.items()}
+            diverged = diverged.reshape(num_models, num_cand).any(axis=0)
         return total, terms, diverged
 
     def candidates(self, rng: np.random.Generator, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
