@@ -104,8 +104,13 @@ class Trial:
         self.duration = self.problem.duration
         planner.bind(self.problem)
 
-    def run(self) -> TrialLog:
+    def run(self, snapshots: tuple[float, ...] = ()) -> TrialLog:
         """Simulate the closed loop for ``duration`` seconds of control time.
+
+        Args:
+            snapshots: control times at which to keep the plant's full state (``mjSTATE_FULLPHYSICS``,
+                time set to the control clock) in :attr:`snapshots`: at the first replan at or after
+                each.
 
         Returns:
             The per-replan log.
@@ -129,6 +134,8 @@ class Trial:
         nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         state = np.empty(nstate)
         earlier = None  # the state of one replan period earlier (draw.delay)
+        pending = sorted(float(v) for v in snapshots)
+        self.snapshots: dict[float, np.ndarray] = {}
         pushed = int(idx.object_bodies[0])
         log = TrialLog()
         offsets = np.arange(per_plan) * dt
@@ -140,6 +147,8 @@ class Trial:
                 t = k * dt
                 mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
                 state[0] = t  # rollouts run on the control clock
+                while pending and t >= pending[0] - 1e-9:
+                    self.snapshots[pending.pop(0)] = state.copy()
                 seen = draw.observe(scene, state, prng)
                 if draw.delay:
                     seen, earlier = (seen if earlier is None else earlier), seen.copy()

@@ -166,3 +166,21 @@ def test_multirun_goes_on_after_a_failure_and_resumes(tmp_path, reference_files)
     # Resume: the finished job is skipped, the failed one is tried again.
     r2 = launch(*args)
     assert r2.stdout.count("skipped (record exists") == 1, r2.stdout
+
+
+@pytest.mark.parametrize("visit", ["replay", "planner"])
+def test_benchmark_times_states_a_trial_visits(reference_files, tmp_path, visit):
+    """job=benchmark: approach and contact states, plan vs bare rollout interleaved, wall and CPU time,
+    per thread count; JSON written."""
+    overrides = ["task=apple", "job=benchmark", f"task.reference_path={reference_files['apple']}", *TINY]
+    path = run_job(overrides + ["job.repeats=2", "job.physics_steps=20", f"job.visit={visit}"], tmp_path)
+    result = json.loads(path.read_text())
+    rows = result["rows"]
+    assert [(r["state"], r["nthread"]) for r in rows] == [
+        ("approach", 1), ("approach", 2), ("contact", 1), ("contact", 2)
+    ]  # fmt: skip
+    for r in rows:
+        assert r["plan_seconds"] > 0 and r["rollout_cpu_seconds"] > 0 and r["plant_step_us"] > 0
+        assert r["ncon"] >= 0 and r["nefc"] >= 0
+    assert rows[0]["speedup"] == 1.0 and rows[2]["speedup"] == 1.0
+    assert rows[0]["time"] <= rows[2]["time"]

@@ -1,11 +1,24 @@
-"""The benchmark job (``conf/job/benchmark.yaml``): one planning iteration against the bare
-``mujoco.rollout`` of the same batch.
+"""The benchmark job (``conf/job/benchmark.yaml``): what a trial's time goes to, at states a trial visits.
 
-    python launch.py job=benchmark preset=paper task=apple
+    python launch.py job=benchmark task=apple                 # lite preset
+    python launch.py job=benchmark task=paper_bottle preset=paper
 
-Prints and writes ``benchmark.json``: per thread count, the median wall time of a planning iteration
-(sampling, spline -> controls, rollout, cost, update), of the bare rollout of the same controls, their
-ratio (the planner's overhead), and the speed-up from 1 thread to N threads.
+The states are a trial's own, taken at two instants: *approach* (half-way to the first expected contact)
+and *contact* (the middle of the span with expected contacts). With ``visit=planner`` (the default) the
+closed loop of the configured planner runs from the reference's start to the contact instant, so the
+contact state is one where the controller holds the object (seconds to a minute, lite); with
+``visit=replay`` the plant tracks the reference's own splines (no planning: seconds), whose contact state
+may have lost the object. At each state the job measures, per thread count:
+
+- one physics step of the plant model and of the planning model from that state (wall and CPU time per
+  step, averaged over a short run), with the state's ``ncon`` and ``nefc``;
+- a planning iteration (sampling, spline -> controls, rollout, cost, update) and the bare
+  ``mujoco.rollout`` of the same controls, **interleaved** (plan, rollout, plan, rollout, ...) so that
+  load on the machine hits both alike; the median wall time and the median CPU time (the process's,
+  over all threads) of each, their ratio (the planner's overhead) and the speed-up from the first
+  thread count to each other (wall time).
+
+It prints one table and writes ``benchmark.json``.
 """
 
 from __future__ import annotations
@@ -25,17 +38,95 @@ from contactmpc.records import write_json
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
 from contactmpc.trial import Trial
-from contactmpc.validate import Ge, Le, checked
+from contactmpc.validate import Ge, OneOf, checked
+
+STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
 
-def _median_time(fn: Callable[[], object], repeats: int) -> float:
-    fn()  # warm-up (compiles, allocates)
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
+def _clock() -> tuple[float, float]:
+    return time.perf_counter(), time.process_time()
+
+
+def interleaved(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, dict[str, float]]:
+    """Median wall and CPU seconds of each function, timed in turn (a, b, a, b, ...) after one warm-up
+    call each, so that whatever else runs on the machine affects them alike."""
+    for fn in fns.values():
         fn()
-        times.append(time.perf_counter() - start)
-    return float(np.median(times))
+    times: dict[str, list[tuple[float, float]]] = {name: [] for name in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            w0, c0 = _clock()
+            fn()
+            w1, c1 = _clock()
+            times[name].append((w1 - w0, c1 - c0))
+    return {
+        name: {"wall": float(np.median([w for w, _ in v])), "cpu": float(np.median([c for _, c in v]))}
+        for name, v in times.items()
+    }
+
+
+def step_cost(model: mujoco.MjModel, state: np.ndarray, steps: int) -> dict[str, float]:
+    """Wall and CPU seconds per ``mj_step`` of ``model`` from ``state`` (controls held), over ``steps``
+    steps, with the ``ncon`` and ``nefc`` of the state."""
+    d = mujoco.MjData(model)
+    mujoco.mj_setState(model, d, state, STATE)
+    mujoco.mj_forward(model, d)
+    ncon, nefc = int(d.ncon), int(d.nefc)
+    mujoco.mj_step(model, d)  # warm-up
+    mujoco.mj_setState(model, d, state, STATE)
+    w0, c0 = _clock()
+    for _ in range(steps):
+        mujoco.mj_step(model, d)
+    w1, c1 = _clock()
+    return {"wall": (w1 - w0) / steps, "cpu": (c1 - c0) / steps, "ncon": ncon, "nefc": nefc}
+
+
+def instants(trial: Trial) -> dict[str, float]:
+    """Control times of the *approach* and *contact* states (see the module docstring)."""
+    track = trial.track
+    active = np.flatnonzero(track.contact_active.any(axis=1))
+    first = active[0] * track.dt if active.size else 0.5 * trial.duration
+    last = active[-1] * track.dt if active.size else trial.duration
+    return {"approach": 0.5 * first, "contact": 0.5 * (first + last)}
+
+
+def planner_states(trial: Trial) -> dict[str, tuple[float, np.ndarray]]:
+    """The plant's full state at the instants of :func:`instants` in the closed loop of ``trial``'s
+    planner, run from the start to the contact instant: name -> (control time, state)."""
+    times = instants(trial)
+    visit = Trial(
+        trial.scene, trial.reference, trial.problem.space, trial.problem.cost, trial.planner, trial.seed,
+        duration=times["contact"] + trial.planner.replan_period, progress=False,
+    )  # fmt: skip
+    visit.run(snapshots=tuple(times.values()))
+    return {name: (float(visit.snapshots[t][0]), visit.snapshots[t]) for name, t in times.items()}
+
+
+def replay_states(scene: Scene, trial: Trial) -> dict[str, tuple[float, np.ndarray]]:
+    """The plant's full state at the instants of :func:`instants` while it tracks the reference's own
+    splines (no planning): name -> (control time, state)."""
+    m = scene.plant_model
+    d = mujoco.MjData(m)
+    hand0 = trial.planner.targets(np.array([0.0]))[0]
+    scene.reset(d, hand_qpos=hand0, object_qpos=scene.task.start_object_qpos(trial.reference.object_qpos[0]))
+    dt = m.opt.timestep
+    out: dict[str, tuple[float, np.ndarray]] = {}
+    state = np.empty(mujoco.mj_stateSize(m, STATE))
+    step = 0
+    for name, t in sorted(instants(trial).items(), key=lambda kv: kv[1]):
+        n = int(round(t / dt))
+        chunk = 1000
+        while step < n:
+            k = min(chunk, n - step)
+            targets = trial.planner.targets((step + np.arange(k)) * dt)
+            for j in range(k):
+                d.ctrl[scene.index.actuators] = targets[j]
+                mujoco.mj_step(m, d)
+            step += k
+        mujoco.mj_getState(m, d, state, STATE)
+        state[0] = n * dt
+        out[name] = (n * dt, state.copy())
+    return out
 
 
 @checked
@@ -48,20 +139,23 @@ def benchmark_planner(
     planner: Planner,
     threads: list[Annotated[int, Ge(1)]] | None = None,
     repeats: Annotated[int, Ge(1)] = 10,
-    at_fraction: Annotated[float, Ge(0), Le(1)] = 0.5,
+    physics_steps: Annotated[int, Ge(1)] = 500,
+    visit: Annotated[str, OneOf("planner", "replay")] = "planner",
     reference_cache: str | None = "outputs/cache/references",
     **_,
 ) -> Path:
-    """Time planning iterations and bare rollouts at the middle of the task (contacts expected).
+    """Time the planner against the bare rollout and the physics at states a trial visits.
 
     Args:
         make_scene: builds the scene.
         output_dir: where ``benchmark.json`` goes.
-        seed: seed of the sampling noise.
+        seed: seed of the sampling noise (the same candidates in every repeat).
         sampler, cost, planner: as for a trial (the planner's ``nthread`` is overridden).
         threads: thread counts to measure (default ``[1, 2]``).
-        repeats: timed repetitions per measurement (the median is reported).
-        at_fraction: where in the slowed reference to plan (fraction of its duration).
+        repeats: timed repetitions of each measurement (the median is reported).
+        physics_steps: steps per physics timing.
+        visit: how the states are reached: the configured planner's closed loop, or the reference's
+            splines replayed.
         reference_cache: cache directory of synthesised references.
 
     Returns:
@@ -69,50 +163,81 @@ def benchmark_planner(
     """
     scene = make_scene()
     reference = get_reference(scene, reference_cache)
-    rows = []
-    for nthread in threads or [1, 2]:
-        planner.close()
-        planner.nthread = nthread
-        trial = Trial(scene, reference, sampler, cost, planner, seed, progress=False)
-        t = round(at_fraction * trial.track.duration / planner.dt) * planner.dt
-        m = scene.plant_model
-        data = mujoco.MjData(m)
-        i = min(int(np.searchsorted(reference.time * scene.task.time_scale, t)), len(reference.time) - 1)
-        scene.reset(data, reference.hand_qpos[i], reference.object_qpos[i])
-        state = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-        mujoco.mj_getState(m, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        state[0] = t
-        # The same candidates in both measurements: re-seed and restore the nominal every time.
-        theta0 = planner.theta.copy()
-
-        def plan_once(theta0=theta0, t=t, state=state) -> None:
-            planner.theta[:] = theta0
-            planner.plan(t, state, np.random.default_rng(seed))
-
-        _, _, thetas = planner.candidates(np.random.default_rng(seed), t)
-        ctrl = planner.controls(thetas, planner.basis(t))
-        plan = _median_time(plan_once, repeats)
-        bare = _median_time(lambda state=state, ctrl=ctrl: planner.engine.run(state, ctrl), repeats)
-        rows.append(
-            {"nthread": nthread, "plan_seconds": plan, "rollout_seconds": bare, "overhead": plan / bare}
-        )
+    threads = list(threads or [1, 2])
     planner.close()
-    base = rows[0]["plan_seconds"]
+    planner.nthread = threads[0]
+    trial = Trial(scene, reference, sampler, cost, planner, seed, progress=False)
+    states = planner_states(trial) if visit == "planner" else replay_states(scene, trial)
+    rows = []
+    for name, (t, state) in states.items():
+        plant = step_cost(scene.plant_model, state, physics_steps)
+        model = step_cost(scene.planner_model, state, max(1, physics_steps // 10))
+        theta0 = planner.theta.copy()
+        for nthread in threads:
+            planner.close()
+            planner.nthread = nthread
+            planner.bind(trial.problem)
+            planner.theta[:] = theta0
+            _, _, thetas = planner.candidates(np.random.default_rng(seed), t)
+            ctrl = planner.controls(thetas, planner.basis(t))
+
+            def plan_once(t=t, state=state, theta0=theta0) -> None:
+                planner.theta[:] = theta0  # the same candidates every time
+                planner.plan(t, state, np.random.default_rng(seed))
+
+            timed = interleaved(
+                {
+                    "plan": plan_once,
+                    "rollout": lambda state=state, ctrl=ctrl: planner.engine.run(state, ctrl),
+                },
+                repeats,
+            )
+            rows.append(
+                {
+                    "state": name,
+                    "time": t,
+                    "ncon": plant["ncon"],
+                    "nefc": plant["nefc"],
+                    "plant_step_us": 1e6 * plant["wall"],
+                    "plant_step_cpu_us": 1e6 * plant["cpu"],
+                    "planning_model_step_us": 1e6 * model["wall"],
+                    "planning_model_step_cpu_us": 1e6 * model["cpu"],
+                    "nthread": nthread,
+                    "plan_seconds": timed["plan"]["wall"],
+                    "plan_cpu_seconds": timed["plan"]["cpu"],
+                    "rollout_seconds": timed["rollout"]["wall"],
+                    "rollout_cpu_seconds": timed["rollout"]["cpu"],
+                    "overhead": timed["plan"]["wall"] / timed["rollout"]["wall"],
+                    "overhead_cpu": timed["plan"]["cpu"] / timed["rollout"]["cpu"],
+                }
+            )
+    planner.close()
     for row in rows:
-        row["speedup"] = base / row["plan_seconds"]
+        base = next(r for r in rows if r["state"] == row["state"] and r["nthread"] == threads[0])
+        row["speedup"] = base["plan_seconds"] / row["plan_seconds"]
     result = {
         "task": scene.task.name,
         "num_samples": planner.num_samples,
         "horizon_steps": planner.steps,
         "planner": type(planner).__name__,
+        "plant_timestep": scene.plant_model.opt.timestep,
+        "planning_timestep": scene.planner_model.opt.timestep,
         "rows": rows,
     }
-    name = type(planner).__name__
-    print(f"{scene.task.name}: {planner.num_samples} samples x {planner.steps} steps ({name})")
-    print(f"{'threads':>8} {'plan [s]':>10} {'rollout [s]':>12} {'overhead':>9} {'speed-up':>9}")
+    print(
+        f"{scene.task.name}: {planner.num_samples} samples x {planner.steps} steps ({type(planner).__name__})"
+    )
+    header = (
+        f"{'state':>9} {'ncon':>5} {'nefc':>5} {'plant us':>9} {'plan-model us':>13} {'thr':>4} "
+        f"{'plan s':>8} {'(cpu)':>8} {'rollout s':>10} {'(cpu)':>8} {'overhead':>9} {'(cpu)':>6} "
+        f"{'speed-up':>9}"
+    )
+    print(header)
     for r in rows:
         print(
-            f"{r['nthread']:>8} {r['plan_seconds']:>10.4f} {r['rollout_seconds']:>12.4f} "
-            f"{r['overhead']:>9.3f} {r['speedup']:>9.2f}"
+            f"{r['state']:>9} {r['ncon']:>5} {r['nefc']:>5} {r['plant_step_us']:>9.1f} "
+            f"{r['planning_model_step_us']:>13.1f} {r['nthread']:>4} {r['plan_seconds']:>8.4f} "
+            f"{r['plan_cpu_seconds']:>8.4f} {r['rollout_seconds']:>10.4f} {r['rollout_cpu_seconds']:>8.4f} "
+            f"{r['overhead']:>9.3f} {r['overhead_cpu']:>6.3f} {r['speedup']:>9.2f}"
         )
     return write_json(Path(output_dir) / "benchmark.json", result)
