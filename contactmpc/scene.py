@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Any
 
 import mujoco
 import numpy as np
@@ -143,6 +143,39 @@ def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names: Sequence[str], what: 
     return out
 
 
+_OPTION_ENUMS = {
+    "cone": mujoco.mjtCone,
+    "integrator": mujoco.mjtIntegrator,
+    "jacobian": mujoco.mjtJacobian,
+    "solver": mujoco.mjtSolver,
+}
+
+
+def _set_options(opt: mujoco.MjOption, options: dict[str, Any]) -> None:
+    """Set ``mjOption`` fields by name (enum fields by their value's name, e.g. ``cone: pyramidal``).
+
+    Raises:
+        SceneError: an unknown field, or a value it does not take.
+    """
+    for key, value in options.items():
+        if key == "timestep" or not hasattr(opt, key) or key.startswith("_"):
+            raise SceneError(f"scene.planner_options: {key!r} is not an mjOption field it may set")
+        if key in _OPTION_ENUMS and isinstance(value, str):
+            prefix = {"cone": "mjCONE_", "integrator": "mjINT_", "jacobian": "mjJAC_", "solver": "mjSOL_"}[
+                key
+            ]
+            member = getattr(_OPTION_ENUMS[key], f"{prefix}{value.upper()}", None)
+            if member is None:
+                raise SceneError(
+                    f"scene.planner_options: {key}={value!r} is not a {_OPTION_ENUMS[key].__name__}"
+                )
+            value = member
+        try:
+            setattr(opt, key, value)
+        except (TypeError, ValueError) as err:
+            raise SceneError(f"scene.planner_options: {key}={value!r}: {err}") from err
+
+
 def _sensor_adr(model: mujoco.MjModel, name: str, width: int) -> np.ndarray:
     adr = model.sensor_adr[ids(model, mujoco.mjtObj.mjOBJ_SENSOR, [name], "sensor")[0]]
     return np.arange(adr, adr + width)
@@ -161,6 +194,10 @@ class Scene:
         impratio: frictional-to-normal impedance ratio (higher resists slip in grasps).
         hand_root: (3,) offset of the wrist's zero from the task's ``hand_mount`` (world frame; most
             tasks mount the hand at the origin).
+        planner_options: fields of ``mjOption`` set on the planning model only (the plant keeps the
+            scene's), e.g. ``{ccd_iterations: 10, ccd_tolerance: 1e-6}`` or ``{cone: pyramidal}``
+            (enum fields by name: ``cone``, ``integrator``, ``jacobian``, ``solver``). Empty (the
+            default): the planning model differs from the plant only in its timestep.
 
     Raises:
         SceneError: if the scene does not compile or a name does not resolve.
@@ -177,6 +214,7 @@ class Scene:
         cone: str = "elliptic",
         impratio: Annotated[float, Gt(0)] = 10.0,
         hand_root: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        planner_options: dict[str, Any] | None = None,
     ) -> None:
         if not 0 < plant_timestep <= planner_timestep:
             raise SceneError(
@@ -224,6 +262,8 @@ class Scene:
             task.add_to(self.spec)
             self.plant_model = self._compile(plant_timestep)
             self.planner_model = self._compile(planner_timestep)
+            self.planner_options = dict(planner_options or {})
+            _set_options(self.planner_model.opt, self.planner_options)
         except SceneError:
             raise
         except Exception as err:  # MjSpec raises ValueError for compile errors

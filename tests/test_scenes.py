@@ -378,3 +378,20 @@ def test_render_scene_writes_png(scene_for, tmp_path):
     img = iio.imread(path)
     assert img.shape == (120, 160, 3) and img.dtype == np.uint8
     assert img.reshape(-1, 3).std(axis=0).max() > 5.0, "the rendered image is uniform"
+
+
+def test_planner_options_change_only_the_planning_model():
+    """scene.planner_options: mjOption fields on the planning model; the plant keeps the scene's."""
+    from contactmpc.scene import SceneError
+    from tests.conftest import build_scene
+
+    scene = build_scene(("task=apple", "+scene.planner_options={ccd_iterations: 10, cone: pyramidal}"))
+    assert scene.planner_model.opt.ccd_iterations == 10
+    assert scene.planner_model.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
+    assert (
+        scene.plant_model.opt.ccd_iterations == 35
+        and scene.plant_model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    )
+    for bad, words in (("{bogus: 1}", "'bogus' is not an mjOption field"), ("{cone: round}", "cone='round'")):
+        with pytest.raises(SceneError, match=words):
+            build_scene(("task=apple", f"+scene.planner_options={bad}"))
