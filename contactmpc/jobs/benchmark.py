@@ -215,11 +215,19 @@ def benchmark_planner(
     for row in rows:
         base = next(r for r in rows if r["state"] == row["state"] and r["nthread"] == threads[0])
         row["speedup"] = base["plan_seconds"] / row["plan_seconds"]
+    span = instants(trial)
+    active = np.flatnonzero(trial.track.contact_active.any(axis=1)) * trial.track.dt
     result = {
         "task": scene.task.name,
         "num_samples": planner.num_samples,
         "horizon_steps": planner.steps,
+        "replan_period": planner.replan_period,
         "planner": type(planner).__name__,
+        "visit": visit,
+        # what a trial of this task costs besides its planner: its length and its share in contact
+        "duration": trial.duration,
+        "contact_fraction": float((active[-1] - active[0]) / trial.duration) if active.size else 0.0,
+        "instants": span,
         "plant_timestep": scene.plant_model.opt.timestep,
         "planning_timestep": scene.planner_model.opt.timestep,
         "rows": rows,
