@@ -42,6 +42,15 @@ def compose_config(overrides: Sequence[str] = (), return_hydra_config: bool = Fa
         )
 
 
+def member_package(group: str, member: str) -> str:
+    """Where a member of ``group`` lands in the composed config: its ``# @package`` header (e.g.
+    ``planner.robust`` for ``conf/robust/ensemble.yaml``), else the group's name."""
+    first = (CONF_DIR / group / f"{member}.yaml").read_text().splitlines()[:1]
+    if first and first[0].startswith("# @package "):
+        return first[0].removeprefix("# @package ").strip()
+    return group
+
+
 _SCENES: dict[tuple[str, ...], object] = {}
 
 

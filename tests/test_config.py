@@ -24,7 +24,7 @@ from omegaconf import OmegaConf
 import launch
 from contactmpc.config import JOB_RUNTIME_ARGS, MISSING, SCENE_RUNTIME_ARGS, Config, locate, schema
 from launch import SCHEMAS
-from tests.conftest import CONF_DIR, compose_config
+from tests.conftest import CONF_DIR, compose_config, member_package
 
 GENERATED = [(group, name, cls) for group, name, cls in SCHEMAS if group is not None]
 META = ("_target_", "_partial_")
@@ -173,9 +173,10 @@ def test_only_runtime_arguments_are_left_out():
 @pytest.mark.parametrize(("group", "name", "cls", "path"), USES, ids=[_id(u) for u in USES])
 def test_every_parameter_is_a_key_of_the_composed_member(group, name, cls, path):
     cfg = compose_config([f"{group}={path.stem}"])
-    missing = set(configurable(cls)) - set(cfg[group])
+    node = OmegaConf.select(cfg, member_package(group, path.stem))
+    missing = set(configurable(cls)) - set(node)
     assert not missing, f"{group}={path.stem}: {sorted(missing)} cannot be set from the command line"
-    assert cfg[group]._target_ == _field_default(cls, "_target_")
+    assert node._target_ == _field_default(cls, "_target_")
 
 
 @pytest.mark.parametrize(("key", "cls"), _scene_fields())

@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import re
 import subprocess
 import sys
 from typing import Annotated
@@ -23,7 +24,7 @@ from omegaconf import OmegaConf
 import launch
 from contactmpc.config import check_config
 from contactmpc.validate import ConfigError, Ge, Gt, Le, OneOf, checked, declared, problem
-from tests.conftest import CONF_DIR, REPO_ROOT, compose_config
+from tests.conftest import CONF_DIR, REPO_ROOT, compose_config, member_package
 
 # (overrides, key the message names)
 NONSENSE = [
@@ -118,11 +119,15 @@ MEMBER_SCHEMAS = [
 def test_every_float_must_be_finite(group, member, schema, tmp_path):
     """NaN in any float of any member is refused, whether or not its parameter declares anything."""
     config = _resolved([f"{group}={member}"], tmp_path)
+    package = member_package(group, member)
     floats = [f.name for f in dataclasses.fields(schema) if f.type is float or f.type == float | None]
     for name in floats:
         bad = copy.deepcopy(config)
-        bad[group][name] = float("nan")
-        with pytest.raises(ConfigError, match=rf"^{group}\.{name} must be finite"):
+        node = bad
+        for part in package.split("."):
+            node = node[part]
+        node[name] = float("nan")
+        with pytest.raises(ConfigError, match=rf"^{re.escape(package)}\.{name} must be finite"):
             check_config(bad)
 
 
