@@ -1,0 +1,186 @@
+"""Success under mismatch: completion and TTF against the object's initial offset, per task and method.
+
+Reads the records of a sweep such as ``experiment=robustness_lite``: each record's ``variant`` label (the
+method: ``replay``, ``full``, ``joint_space``, ``wrist``, ``robust``) and its drawn ``perturbation`` (the
+offset's length, rounded to the millimetre). Per task, method and offset it reports the success rate
+(share of trials completed) with a bootstrap 90 % confidence interval over the trials, the median TTF,
+and per task and method the largest offset at which at least 80 % of the trials succeed.
+
+Outputs (:func:`write_robustness`): ``robustness.png`` (one panel per task: success rate against offset,
+a line and a band per method), ``robustness.csv`` and ``robustness.md``.
+
+Command line::
+
+    python -m analysis.robustness SWEEP_DIR [SWEEP_DIR ...] --out-dir DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from analysis.aggregate import TASK_ORDER, ordered
+
+#: Methods in the order of tables and legends; others follow, sorted.
+METHOD_ORDER: tuple[str, ...] = ("replay", "full", "joint_space", "wrist", "robust")
+METHOD_COLORS = {
+    "replay": "0.45",
+    "full": "#2ca02c",
+    "joint_space": "#d62728",
+    "wrist": "#9467bd",
+    "robust": "#ff7f0e",
+}
+SURVIVAL = 0.8  # the share of trials that must succeed at an offset for a method to "survive" it
+
+
+def load(*dirs: str | Path) -> pd.DataFrame:
+    """One row per record: task, method, offset (m), seed, status, completed, ttf."""
+    rows = []
+    for d in dirs:
+        for path in sorted(Path(d).rglob("trial.json")):
+            try:
+                r = json.loads(path.read_text())
+            except (OSError, ValueError):
+                continue
+            drawn = r.get("perturbation") or {}
+            offset = float(np.linalg.norm(drawn.get("object_offset", [0.0, 0.0, 0.0])))
+            rows.append(
+                {
+                    "task": r.get("task"),
+                    "method": r.get("variant") or r.get("planner"),
+                    "offset": round(offset, 3),
+                    "seed": r.get("seed"),
+                    "status": r.get("status"),
+                    "completed": bool(r.get("completed")) if r.get("status") == "ok" else False,
+                    "ttf": r.get("ttf"),
+                }
+            )
+    if not rows:
+        raise ValueError(f"no trial.json records under {', '.join(map(str, dirs))}")
+    return pd.DataFrame(rows)
+
+
+def bootstrap(successes: np.ndarray, rng: np.random.Generator, draws: int = 2000) -> tuple[float, float]:
+    """90 % bootstrap interval of the mean of ``successes`` (0/1), resampling trials."""
+    if len(successes) == 0:
+        return (np.nan, np.nan)
+    means = rng.choice(successes, size=(draws, len(successes)), replace=True).mean(axis=1)
+    return float(np.percentile(means, 5)), float(np.percentile(means, 95))
+
+
+def summary(df: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
+    """Per task, method and offset: trials, success rate, its 90 % bootstrap interval, median TTF."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for task in ordered(df["task"], TASK_ORDER):
+        for method in ordered(df.loc[df["task"] == task, "method"], METHOD_ORDER):
+            sel = df[(df["task"] == task) & (df["method"] == method)]
+            for offset in sorted(sel["offset"].unique()):
+                g = sel[sel["offset"] == offset]
+                ok = g["completed"].to_numpy(float)
+                lo, hi = bootstrap(ok, rng)
+                ttf = pd.to_numeric(g["ttf"], errors="coerce").dropna()
+                rows.append(
+                    {
+                        "task": task,
+                        "method": method,
+                        "offset": offset,
+                        "trials": len(g),
+                        "errors": int((g["status"] != "ok").sum()),
+                        "success": float(ok.mean()),
+                        "success_lo": lo,
+                        "success_hi": hi,
+                        "ttf_median": float(ttf.median()) if len(ttf) else np.nan,
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+def survives(table: pd.DataFrame) -> pd.DataFrame:
+    """Per task and method, the largest offset with a success rate of at least :data:`SURVIVAL` (NaN if
+    none)."""
+    good = table[table["success"] >= SURVIVAL]
+    out = good.groupby(["task", "method"], sort=False)["offset"].max()
+    return out.reindex(pd.MultiIndex.from_frame(table[["task", "method"]].drop_duplicates())).reset_index()
+
+
+def figure(table: pd.DataFrame, path: str | Path | None = None) -> Figure:
+    """Success rate against offset, one panel per task, a line and a 90 % band per method."""
+    tasks = ordered(table["task"], TASK_ORDER)
+    fig = Figure(figsize=(4.0 * len(tasks), 3.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, len(tasks), sharey=True, squeeze=False)[0]
+    for ax, task in zip(axes, tasks, strict=True):
+        t = table[table["task"] == task]
+        for method in ordered(t["method"], METHOD_ORDER):
+            m = t[t["method"] == method].sort_values("offset")
+            x = 100 * m["offset"].to_numpy()
+            color = METHOD_COLORS.get(method, "0.6")
+            ax.plot(x, m["success"], marker="o", color=color, label=method)
+            ax.fill_between(x, m["success_lo"], m["success_hi"], color=color, alpha=0.15, linewidth=0)
+        ax.set_title(task)
+        ax.set_xlabel("initial object offset (cm)")
+        ax.set_ylim(-0.05, 1.05)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("success rate (completed)")
+    axes[-1].legend(fontsize=8)
+    if path is not None:
+        fig.savefig(path, dpi=130)
+    return fig
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """The table (success with its interval, median TTF) and the largest offset each method survives."""
+    lines = [
+        "| task | method | offset | success (90 % CI) | median TTF | trials |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in table.itertuples(index=False):
+        lines.append(
+            f"| {r.task} | {r.method} | {100 * r.offset:.0f} cm | {r.success:.2f} ({r.success_lo:.2f}–"
+            f"{r.success_hi:.2f}) | {r.ttf_median:.2f} | {r.trials} |"
+        )
+    lines += ["", f"Largest offset with at least {SURVIVAL:.0%} of the trials completed:", ""]
+    lines += ["| task | method | offset |", "|---|---|---|"]
+    for r in survives(table).itertuples(index=False):
+        where = "none" if np.isnan(r.offset) else f"{100 * r.offset:.0f} cm"
+        lines.append(f"| {r.task} | {r.method} | {where} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_robustness(df: pd.DataFrame, out_dir: str | Path) -> Path:
+    """Write ``robustness.png``, ``robustness.csv`` and ``robustness.md`` into ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    table = summary(df)
+    figure(table, out / "robustness.png")
+    table.to_csv(out / "robustness.csv", index=False)
+    (out / "robustness.md").write_text(markdown(table))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m analysis.robustness", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR")
+    parser.add_argument("--out-dir", required=True)
+    args = parser.parse_args(argv)
+    try:
+        out = write_robustness(load(*args.sweep_dirs), args.out_dir)
+    except (ValueError, OSError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(f"wrote {out / 'robustness.png'}, robustness.csv, robustness.md")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
