@@ -144,11 +144,9 @@ def markdown(df: pd.DataFrame) -> str:
     for r in summary.itertuples(index=False):
         done = f"{round(r.completion_rate * r.n)}/{r.n}" if r.n else "0/0"
         ttf = f"{100 * r.ttf_median:.1f} ({100 * r.ttf_q25:.1f}–{100 * r.ttf_q75:.1f})" if r.n else "—"
-        err = (
-            f"{1000 * r.object_position_error_mean:.0f} mm"
-            if np.isfinite(r.object_position_error_mean)
-            else "—"
-        )
+        # a task without a free object body (the doorknob's slide) has no position error: "—"
+        err = r.object_position_error_mean
+        err = f"{1000 * err:.0f} mm" if np.isfinite(err) and err > 1e-9 else "—"
         lines.append(f"| {r.task} | {r.variant} | {r.condition} | {done} | {ttf} | {err} | {r.errors} |")
     lines += [
         "",

@@ -164,7 +164,9 @@ class Trial:
                     if force is not None:
                         d.xfrc_applied[pushed, :3] = 0.0
                 if any(w.number for w in d.warning) or not np.isfinite(d.qpos).all():
-                    raise PlantDiverged(f"plant diverged at t={d.time:.3f}s")
+                    # MuJoCo resets a diverged plant (d.time restarts): name the control time
+                    end = (k + min(per_plan, n_steps - k)) * dt
+                    raise PlantDiverged(f"plant diverged between t={t:.3f}s and t={end:.3f}s")
                 bar.update(min(per_plan, n_steps - k))
         finally:
             bar.close()
