@@ -265,10 +265,15 @@ EXPERIMENTS = sorted((CONF_DIR / "experiment").glob("*.yaml"))
 
 
 def _leaves(node: Any, prefix: str = "") -> list[tuple[str, Any]]:
-    """``(dotted key, value)`` of every leaf of a YAML mapping (a list is one leaf)."""
+    """``(dotted key, value)`` of every leaf of a YAML mapping (a list is one leaf); a key that itself
+    holds a dot (a sweeper parameter such as ``perturbation.object_offset``) is bracketed."""
     if not isinstance(node, dict):
         return [(prefix, node)]
-    return [leaf for k, v in node.items() for leaf in _leaves(v, f"{prefix}{k}.")]
+    return [
+        leaf
+        for k, v in node.items()
+        for leaf in _leaves(v, f"{prefix[:-1]}[{k}]." if "." in str(k) else f"{prefix}{k}.")
+    ]
 
 
 def _same_setting(written: Any, composed: Any) -> bool:
