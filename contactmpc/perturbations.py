@@ -28,7 +28,7 @@ from contactmpc.validate import Ge, Le, checked
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
 
-__all__ = ["Perturbation", "PerturbationDraw"]
+__all__ = ["Perturbation", "PerturbationDraw", "object_body_mask"]
 
 _SEED_STREAM = 1  # the draw's generator is default_rng((seed, 1)); the planner's is default_rng(seed)
 
@@ -97,7 +97,7 @@ class PerturbationDraw:
         else:
             model = copy.copy(scene.plant_model)
         idx = scene.index
-        bodies = np.flatnonzero(_object_body_mask(model, idx.object_bodies))
+        bodies = np.flatnonzero(object_body_mask(model, idx.object_bodies))
         model.body_mass[bodies] *= self.mass_scale
         model.body_inertia[bodies] *= self.mass_scale
         geoms = np.flatnonzero(np.isin(model.geom_bodyid, bodies))
@@ -173,8 +173,8 @@ class PerturbationDraw:
         return out
 
 
-def _object_body_mask(model: mujoco.MjModel, roots: np.ndarray) -> np.ndarray:
-    """(nbody,) the object bodies and their descendants."""
+def object_body_mask(model: mujoco.MjModel, roots: np.ndarray) -> np.ndarray:
+    """(nbody,) True for the bodies ``roots`` (the task's object bodies) and their descendants."""
     mask = np.zeros(model.nbody, bool)
     mask[roots] = True
     for b in range(1, model.nbody):
@@ -183,7 +183,7 @@ def _object_body_mask(model: mujoco.MjModel, roots: np.ndarray) -> np.ndarray:
 
 
 def _object_body_names(model: mujoco.MjModel, roots: np.ndarray) -> list[str]:
-    return [model.body(int(b)).name for b in np.flatnonzero(_object_body_mask(model, roots))]
+    return [model.body(int(b)).name for b in np.flatnonzero(object_body_mask(model, roots))]
 
 
 class Perturbation:

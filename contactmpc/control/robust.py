@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Annotated
 import mujoco
 import numpy as np
 
+from contactmpc.perturbations import object_body_mask
 from contactmpc.validate import Ge, Gt, Le, OneOf, checked
 
 if TYPE_CHECKING:
@@ -65,11 +66,7 @@ class ModelEnsemble:
         """
         rng = np.random.default_rng(self.seed)
         base = scene.planner_model
-        mask = np.zeros(base.nbody, bool)
-        mask[scene.index.object_bodies] = True
-        for b in range(1, base.nbody):
-            mask[b] |= mask[base.body_parentid[b]]
-        bodies = np.flatnonzero(mask)
+        bodies = np.flatnonzero(object_body_mask(base, scene.index.object_bodies))
         geoms = np.flatnonzero(np.isin(base.geom_bodyid, bodies))
         models, scales = [], []
         for _ in range(self.num_models):
