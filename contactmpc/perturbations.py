@@ -28,7 +28,7 @@ from contactmpc.validate import Ge, Le, checked
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
 
-__all__ = ["Perturbation", "PerturbationDraw", "object_body_mask"]
+__all__ = ["Perturbation", "PerturbationDraw"]
 
 _SEED_STREAM = 1  # the draw's generator is default_rng((seed, 1)); the planner's is default_rng(seed)
 
@@ -97,7 +97,7 @@ class PerturbationDraw:
         else:
             model = copy.copy(scene.plant_model)
         idx = scene.index
-        bodies = np.flatnonzero(object_body_mask(model, idx.object_bodies))
+        bodies = np.flatnonzero(idx.object_body_mask)  # the same body ids in a recompiled copy
         model.body_mass[bodies] *= self.mass_scale
         model.body_inertia[bodies] *= self.mass_scale
         geoms = np.flatnonzero(np.isin(model.geom_bodyid, bodies))
@@ -109,7 +109,8 @@ class PerturbationDraw:
 
     def _scaled_plant(self, scene: Scene) -> mujoco.MjModel:
         spec = scene.spec.copy()
-        names = set(_object_body_names(scene.plant_model, scene.index.object_bodies))
+        model = scene.plant_model
+        names = {model.body(int(b)).name for b in np.flatnonzero(scene.index.object_body_mask)}
         s = self.size_scale
         meshes: set[str] = set()
         for body in spec.bodies:
@@ -171,19 +172,6 @@ class PerturbationDraw:
         for c in layout.articulation_columns:
             out[adr[c]] += rng.normal(0.0, sigma)
         return out
-
-
-def object_body_mask(model: mujoco.MjModel, roots: np.ndarray) -> np.ndarray:
-    """(nbody,) True for the bodies ``roots`` (the task's object bodies) and their descendants."""
-    mask = np.zeros(model.nbody, bool)
-    mask[roots] = True
-    for b in range(1, model.nbody):
-        mask[b] |= mask[model.body_parentid[b]]
-    return mask
-
-
-def _object_body_names(model: mujoco.MjModel, roots: np.ndarray) -> list[str]:
-    return [model.body(int(b)).name for b in np.flatnonzero(object_body_mask(model, roots))]
 
 
 class Perturbation:

@@ -49,6 +49,7 @@ class SceneIndex:
         hand_vel: (J,) sensordata addresses of the hand joint velocities.
         object_qo: (n_o,) sensordata addresses that read ``q_o`` directly: a free joint's body
             position and quaternion, then articulation angles, in ``q_o`` order.
+        object_body_mask: (nbody,) True for the object bodies and their descendants.
         object_geom_mask: (ngeom,) True for geoms that belong to the object (object bodies and
             their descendants).
         link_of_geom: (ngeom,) index into the links of the hand link owning each geom, -1 if none.
@@ -70,6 +71,7 @@ class SceneIndex:
     object_joint_pos: np.ndarray
     hand_vel: np.ndarray
     object_qo: np.ndarray
+    object_body_mask: np.ndarray
     object_geom_mask: np.ndarray
     link_of_geom: np.ndarray
 
@@ -116,6 +118,7 @@ class SceneIndex:
             ),
             hand_vel=np.concatenate([_sensor_adr(m, f"{n}_vel", 1) for n in hand.joint_names]),
             object_qo=np.concatenate([_sensor_adr(m, name, w) for name, w in qo_sensors]).astype(int),
+            object_body_mask=is_object,
             object_geom_mask=is_object[m.geom_bodyid],
             link_of_geom=link_index[m.geom_bodyid],
         )

@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING, Annotated
 import mujoco
 import numpy as np
 
-from contactmpc.perturbations import object_body_mask
 from contactmpc.validate import Ge, Gt, Le, OneOf, checked
 
 if TYPE_CHECKING:
@@ -66,7 +65,7 @@ class ModelEnsemble:
         """
         rng = np.random.default_rng(self.seed)
         base = scene.planner_model
-        bodies = np.flatnonzero(object_body_mask(base, scene.index.object_bodies))
+        bodies = np.flatnonzero(scene.index.object_body_mask)
         geoms = np.flatnonzero(np.isin(base.geom_bodyid, bodies))
         models, scales = [], []
         for _ in range(self.num_models):

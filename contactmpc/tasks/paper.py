@@ -22,17 +22,16 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
+from contactmpc.hands.allegro_paper import AllegroPaperHand
 from contactmpc.reference.data import ReferenceError
 from contactmpc.reference.paper.importer import PaperFiles, start_configuration
 from contactmpc.tasks.base import Task, quat_angle
 
 __all__ = ["PaperTask"]
 
-# The joint order of the Allegro hands of this project (wrist, then ff, mf, rf, th joints 0-3), in
-# which a paper task states its hand_home.
-_WRIST = ("wrist_x", "wrist_y", "wrist_z", "wrist_rx", "wrist_ry", "wrist_rz")
-_FINGERS = tuple(f"{f}j{i}" for f in ("ff", "mf", "rf", "th") for i in range(4))
-JOINT_NAMES = _WRIST + _FINGERS
+# The joint order of the paper hand (wrist, then ff, mf, rf, th joints 0-3), in which a paper task states
+# its hand_home.
+JOINT_NAMES = AllegroPaperHand.WRIST_JOINTS + AllegroPaperHand.FINGER_JOINTS
 
 
 class PaperTask(Task):
