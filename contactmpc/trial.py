@@ -163,7 +163,7 @@ class Trial:
                     mujoco.mj_step(m, d)
                     if force is not None:
                         d.xfrc_applied[pushed, :3] = 0.0
-                if any(w.number for w in d.warning) or not np.isfinite(d.qpos).all():
+                if d.warning.number.any() or not np.isfinite(d.qpos).all():  # 1 us (a loop: 50 us)
                     # MuJoCo resets a diverged plant (d.time restarts): name the control time
                     end = (k + min(per_plan, n_steps - k)) * dt
                     raise PlantDiverged(f"plant diverged between t={t:.3f}s and t={end:.3f}s")

@@ -18,7 +18,7 @@ from hydra.utils import instantiate
 
 import launch
 from contactmpc.jobs.render_scene import render_scene
-from contactmpc.scene import Scene
+from contactmpc.scene import FREE_PLANNER_OPTIONS, Scene
 
 FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
 TASKS = ("apple", "bottle", "stapler", "doorknob")
@@ -153,7 +153,7 @@ def test_task_composes_and_compiles(task, compose):
     assert len(scene.index.object_qpos) == tk.layout.width
     np.testing.assert_array_equal(scene.index.actuators, np.arange(22))
 
-    # The two models are one spec compiled twice: identical in everything but the timestep.
+    # The two models are one spec compiled twice: identical in everything but the timestep...
     plant, planner = scene.plant_model, scene.planner_model
     assert plant.opt.timestep == pytest.approx(cfg.scene.plant_timestep) == 0.001
     assert planner.opt.timestep == pytest.approx(cfg.scene.planner_timestep) == 0.01
@@ -165,7 +165,10 @@ def test_task_composes_and_compiles(task, compose):
     differ = [
         n for n in opts if not np.array_equal(np.asarray(getattr(plant.opt, n)), getattr(planner.opt, n))
     ]
-    assert differ == ["timestep"]
+    # ...and in the options the scene sets on the planning model only (the free savings by default)
+    changed = {k for k, v in scene.planner_options.items() if getattr(plant.opt, k) != v}
+    assert set(differ) == {"timestep"} | changed and "ccd_iterations" in changed
+    assert scene.planner_options == FREE_PLANNER_OPTIONS
 
 
 def _launch(*args: str, cwd) -> subprocess.CompletedProcess:

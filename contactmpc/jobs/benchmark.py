@@ -18,25 +18,34 @@ may have lost the object. At each state the job measures, per thread count:
   over all threads) of each, their ratio (the planner's overhead) and the speed-up from the first
   thread count to each other (wall time).
 
-It prints one table and writes ``benchmark.json``.
+With ``planner_options`` (named sets of ``mjOption`` fields applied on top of the scene's, e.g.
+``{pyramidal: {cone: pyramidal}}``) it also prices each set at each state against the scene's planning
+model: CPU time per step of the candidates' rollout (timed interleaved with the scene's) and the
+agreement cost, the largest distance between the object in the plant and in the planning model under
+the same controls (the nominal candidate's, over the planner's horizon), so that a saving is never
+reported without what it breaks.
+
+It prints its tables and writes ``benchmark.json``.
 """
 
 from __future__ import annotations
 
+import copy
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import mujoco
 import numpy as np
 
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
+from contactmpc.control.rollout import RolloutEngine
 from contactmpc.control.samplers import SplineSpace
 from contactmpc.records import write_json
 from contactmpc.reference.source import get_reference
-from contactmpc.scene import Scene
+from contactmpc.scene import Scene, set_options
 from contactmpc.trial import Trial
 from contactmpc.validate import Ge, OneOf, checked
 
@@ -79,6 +88,88 @@ def step_cost(model: mujoco.MjModel, state: np.ndarray, steps: int) -> dict[str,
         mujoco.mj_step(model, d)
     w1, c1 = _clock()
     return {"wall": (w1 - w0) / steps, "cpu": (c1 - c0) / steps, "ncon": ncon, "nefc": nefc}
+
+
+def object_gap(
+    scene: Scene,
+    state: np.ndarray,
+    controls: np.ndarray,
+    model: mujoco.MjModel,
+    truth: mujoco.MjModel | None = None,
+) -> float:
+    """Largest distance (m) between the object's position in ``truth`` (default: the plant) and in
+    ``model`` (a planning model) when both run ``controls`` from ``state``, compared after every step of
+    ``model``.
+
+    Args:
+        scene: the scene (its plant model and object index).
+        state: (nstate,) full-physics state.
+        controls: (H, nu) controls; row h is held during step h of ``model``.
+        model: the planning model (its timestep a multiple of ``truth``'s).
+        truth: what ``model`` is compared with; ``None``: the plant.
+    """
+    body = int(scene.index.object_bodies[0])
+    truth = scene.plant_model if truth is None else truth
+    ratio = int(round(model.opt.timestep / truth.opt.timestep))
+    dt, dm = mujoco.MjData(truth), mujoco.MjData(model)
+    for m, d in ((truth, dt), (model, dm)):
+        mujoco.mj_setState(m, d, state, STATE)
+    gap = 0.0
+    for u in controls:
+        dt.ctrl[:] = u
+        dm.ctrl[:] = u
+        for _ in range(ratio):
+            mujoco.mj_step(truth, dt)
+        mujoco.mj_step(model, dm)
+        gap = max(gap, float(np.linalg.norm(dt.xpos[body] - dm.xpos[body])))
+    return gap
+
+
+def price_options(
+    scene: Scene,
+    state: np.ndarray,
+    controls: np.ndarray,
+    option_sets: dict[str, dict[str, Any]],
+    engine: RolloutEngine,
+    repeats: int,
+) -> dict[str, dict[str, float]]:
+    """What each set of planning-model options saves and what it costs in agreement, at one state.
+
+    The saving is that of the planning iteration's rollout: the candidates' controls rolled out with
+    each model (timed interleaved), per physics step; options change the trajectories and with them the
+    contacts, so a step cost taken from one held pose would not say what a rollout pays.
+
+    Args:
+        scene: the scene; its planning model (``"scene"``) is the baseline.
+        state: (nstate,) full-physics state.
+        controls: (S, H, nu) the candidates' controls; row 0 (the nominal) also runs the agreement
+            check (:func:`object_gap`).
+        option_sets: name -> ``mjOption`` fields set on a copy of the scene's planning model.
+        engine: the rollout engine (its thread count is the one timed).
+        repeats: interleaved timings (median).
+
+    Returns:
+        name -> ``step_us``, ``step_cpu_us`` (per rollout step), ``saving`` (CPU, fraction of the
+        baseline's) and ``object_gap_mm`` (plant vs that planning model), with ``"scene"`` first.
+    """
+    models = {"scene": scene.planner_model}
+    for name, options in option_sets.items():
+        models[name] = copy.copy(scene.planner_model)
+        set_options(models[name].opt, dict(options), what=f"planner_options.{name}")
+    S, H, _ = controls.shape
+    timed = interleaved(
+        {name: lambda m=m: engine.run(state, controls, models=[m] * S) for name, m in models.items()}, repeats
+    )
+    base = timed["scene"]["cpu"]
+    return {
+        name: {
+            "step_us": 1e6 * timed[name]["wall"] / (S * H),
+            "step_cpu_us": 1e6 * timed[name]["cpu"] / (S * H),
+            "saving": 1.0 - timed[name]["cpu"] / base,
+            "object_gap_mm": 1e3 * object_gap(scene, state, controls[0], m),
+        }
+        for name, m in models.items()
+    }
 
 
 def instants(trial: Trial) -> dict[str, float]:
@@ -141,6 +232,7 @@ def benchmark_planner(
     repeats: Annotated[int, Ge(1)] = 10,
     physics_steps: Annotated[int, Ge(1)] = 500,
     visit: Annotated[str, OneOf("planner", "replay")] = "planner",
+    planner_options: dict[str, dict[str, Any]] | None = None,
     reference_cache: str | None = "outputs/cache/references",
     **_,
 ) -> Path:
@@ -156,11 +248,14 @@ def benchmark_planner(
         physics_steps: steps per physics timing.
         visit: how the states are reached: the configured planner's closed loop, or the reference's
             splines replayed.
+        planner_options: named sets of ``mjOption`` fields to price against the scene's planning model
+            (:func:`price_options`); none: skipped.
         reference_cache: cache directory of synthesised references.
 
     Returns:
         Path of ``benchmark.json``.
     """
+    planner_options = {name: dict(opts) for name, opts in (planner_options or {}).items()}
     scene = make_scene()
     reference = get_reference(scene, reference_cache)
     threads = list(threads or [1, 2])
@@ -169,6 +264,7 @@ def benchmark_planner(
     trial = Trial(scene, reference, sampler, cost, planner, seed, progress=False)
     states = planner_states(trial) if visit == "planner" else replay_states(scene, trial)
     rows = []
+    options: dict[str, dict[str, dict[str, float]]] = {}
     for name, (t, state) in states.items():
         plant = step_cost(scene.plant_model, state, physics_steps)
         model = step_cost(scene.planner_model, state, max(1, physics_steps // 10))
@@ -180,6 +276,8 @@ def benchmark_planner(
             planner.theta[:] = theta0
             _, _, thetas = planner.candidates(np.random.default_rng(seed), t)
             ctrl = planner.controls(thetas, planner.basis(t))
+            if planner_options and name not in options:  # ctrl[0]: the nominal candidate's controls
+                options[name] = price_options(scene, state, ctrl, planner_options, planner.engine, repeats)
 
             def plan_once(t=t, state=state, theta0=theta0) -> None:
                 planner.theta[:] = theta0  # the same candidates every time
@@ -231,6 +329,7 @@ def benchmark_planner(
         "plant_timestep": scene.plant_model.opt.timestep,
         "planning_timestep": scene.planner_model.opt.timestep,
         "rows": rows,
+        "planner_options": {"scene": scene.planner_options, "sets": planner_options, "states": options},
     }
     print(
         f"{scene.task.name}: {planner.num_samples} samples x {planner.steps} steps ({type(planner).__name__})"
@@ -248,4 +347,13 @@ def benchmark_planner(
             f"{r['plan_cpu_seconds']:>8.4f} {r['rollout_seconds']:>10.4f} {r['rollout_cpu_seconds']:>8.4f} "
             f"{r['overhead']:>9.3f} {r['overhead_cpu']:>6.3f} {r['speedup']:>9.2f}"
         )
+    if options:
+        print(f"planning-model options vs the scene's ({dict(scene.planner_options) or 'MuJoCo defaults'}):")
+        print(f"{'state':>9} {'options':>14} {'step us':>8} {'(cpu)':>7} {'saving':>7} {'plant gap mm':>13}")
+        for state_name, priced in options.items():
+            for set_name, p in priced.items():
+                print(
+                    f"{state_name:>9} {set_name:>14} {p['step_us']:>8.1f} {p['step_cpu_us']:>7.1f} "
+                    f"{100 * p['saving']:>6.1f}% {p['object_gap_mm']:>13.2f}"
+                )
     return write_json(Path(output_dir) / "benchmark.json", result)
