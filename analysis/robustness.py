@@ -1,17 +1,20 @@
-"""Success under mismatch: completion and TTF against the object's initial offset, per task and method.
+"""Success under mismatch: completion and TTF against the size of a plant-model error, per task and method.
 
 Reads the records of a sweep such as ``experiment=robustness_lite``: each record's ``variant`` label (the
-method: ``replay``, ``full``, ``joint_space``, ``wrist``, ``robust``) and its drawn ``perturbation`` (the
-offset's length, rounded to the millimetre). Per task, method and offset it reports the success rate
-(share of trials completed) with a bootstrap 90 % confidence interval over the trials, the median TTF,
-and per task and method the largest offset at which at least 80 % of the trials succeed.
+method: ``replay``, ``full``, ``joint_space``, ``wrist``, ``robust``) and its drawn ``perturbation``. The
+error on the x axis (``--axis``) is the object's initial offset (``offset``: the offset's length, rounded
+to the millimetre; ``experiment=robustness_lite``) or its mass error (``mass``: the drawn mass factor
+minus one, rounded to a tenth of a per cent; ``experiment=robustness_mass_lite``). Per task, method and
+error it reports the success rate (share of trials completed) with a bootstrap 90 % confidence interval
+over the trials, the median TTF, and per task and method the largest error at which at least 80 % of
+the trials succeed.
 
 Outputs (:func:`write_robustness`): ``robustness.png`` (one panel per task: success rate against offset,
 a line and a band per method), ``robustness.csv`` and ``robustness.md``.
 
 Command line::
 
-    python -m analysis.robustness SWEEP_DIR [SWEEP_DIR ...] --out-dir DIR
+    python -m analysis.robustness SWEEP_DIR [SWEEP_DIR ...] --out-dir DIR [--axis offset|mass]
 """
 
 from __future__ import annotations
@@ -37,11 +40,16 @@ METHOD_COLORS = {
     "wrist": "#9467bd",
     "robust": "#ff7f0e",
 }
-SURVIVAL = 0.8  # the share of trials that must succeed at an offset for a method to "survive" it
+SURVIVAL = 0.8  # the share of trials that must succeed at an error for a method to "survive" it
+#: The errors a sweep may vary: axis -> (x-axis label, factor to the printed unit, its format).
+AXES = {
+    "offset": ("initial object offset (cm)", 100, "{:.0f} cm"),
+    "mass": ("object mass error (%)", 100, "{:+.0f} %"),
+}
 
 
 def load(*dirs: str | Path) -> pd.DataFrame:
-    """One row per record: task, method, offset (m), seed, status, completed, ttf."""
+    """One row per record: task, method, offset (m), mass (mass factor - 1), seed, status, completed, ttf."""
     rows = []
     for d in dirs:
         for path in sorted(Path(d).rglob("trial.json")):
@@ -56,6 +64,7 @@ def load(*dirs: str | Path) -> pd.DataFrame:
                     "task": r.get("task"),
                     "method": r.get("variant") or r.get("planner"),
                     "offset": round(offset, 3),
+                    "mass": round(float(drawn.get("mass_scale", 1.0)) - 1.0, 3),
                     "seed": r.get("seed"),
                     "status": r.get("status"),
                     "completed": bool(r.get("completed")) if r.get("status") == "ok" else False,
@@ -75,15 +84,16 @@ def bootstrap(successes: np.ndarray, rng: np.random.Generator, draws: int = 2000
     return float(np.percentile(means, 5)), float(np.percentile(means, 95))
 
 
-def summary(df: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
-    """Per task, method and offset: trials, success rate, its 90 % bootstrap interval, median TTF."""
+def summary(df: pd.DataFrame, seed: int = 0, axis: str = "offset") -> pd.DataFrame:
+    """Per task, method and error (column ``axis`` of :data:`AXES`): trials, success rate, its 90 %
+    bootstrap interval, median TTF."""
     rng = np.random.default_rng(seed)
     rows = []
     for task in ordered(df["task"], TASK_ORDER):
         for method in ordered(df.loc[df["task"] == task, "method"], METHOD_ORDER):
             sel = df[(df["task"] == task) & (df["method"] == method)]
-            for offset in sorted(sel["offset"].unique()):
-                g = sel[sel["offset"] == offset]
+            for level in sorted(sel[axis].unique()):
+                g = sel[sel[axis] == level]
                 ok = g["completed"].to_numpy(float)
                 lo, hi = bootstrap(ok, rng)
                 ttf = pd.to_numeric(g["ttf"], errors="coerce").dropna()
@@ -91,7 +101,7 @@ def summary(df: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
                     {
                         "task": task,
                         "method": method,
-                        "offset": offset,
+                        axis: level,
                         "trials": len(g),
                         "errors": int((g["status"] != "ok").sum()),
                         "success": float(ok.mean()),
@@ -103,16 +113,17 @@ def summary(df: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def survives(table: pd.DataFrame) -> pd.DataFrame:
-    """Per task and method, the largest offset with a success rate of at least :data:`SURVIVAL` (NaN if
+def survives(table: pd.DataFrame, axis: str = "offset") -> pd.DataFrame:
+    """Per task and method, the largest error with a success rate of at least :data:`SURVIVAL` (NaN if
     none)."""
     good = table[table["success"] >= SURVIVAL]
-    out = good.groupby(["task", "method"], sort=False)["offset"].max()
+    out = good.groupby(["task", "method"], sort=False)[axis].max()
     return out.reindex(pd.MultiIndex.from_frame(table[["task", "method"]].drop_duplicates())).reset_index()
 
 
-def figure(table: pd.DataFrame, path: str | Path | None = None) -> Figure:
-    """Success rate against offset, one panel per task, a line and a 90 % band per method."""
+def figure(table: pd.DataFrame, path: str | Path | None = None, axis: str = "offset") -> Figure:
+    """Success rate against the error, one panel per task, a line and a 90 % band per method."""
+    label, factor, _ = AXES[axis]
     tasks = ordered(table["task"], TASK_ORDER)
     fig = Figure(figsize=(4.0 * len(tasks), 3.4), layout="constrained")
     FigureCanvasAgg(fig)
@@ -120,13 +131,13 @@ def figure(table: pd.DataFrame, path: str | Path | None = None) -> Figure:
     for ax, task in zip(axes, tasks, strict=True):
         t = table[table["task"] == task]
         for method in ordered(t["method"], METHOD_ORDER):
-            m = t[t["method"] == method].sort_values("offset")
-            x = 100 * m["offset"].to_numpy()
+            m = t[t["method"] == method].sort_values(axis)
+            x = factor * m[axis].to_numpy()
             color = METHOD_COLORS.get(method, "0.6")
             ax.plot(x, m["success"], marker="o", color=color, label=method)
             ax.fill_between(x, m["success_lo"], m["success_hi"], color=color, alpha=0.15, linewidth=0)
         ax.set_title(task)
-        ax.set_xlabel("initial object offset (cm)")
+        ax.set_xlabel(label)
         ax.set_ylim(-0.05, 1.05)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("success rate (completed)")
@@ -136,33 +147,34 @@ def figure(table: pd.DataFrame, path: str | Path | None = None) -> Figure:
     return fig
 
 
-def markdown(table: pd.DataFrame) -> str:
-    """The table (success with its interval, median TTF) and the largest offset each method survives."""
+def markdown(table: pd.DataFrame, axis: str = "offset") -> str:
+    """The table (success with its interval, median TTF) and the largest error each method survives."""
+    _, factor, fmt = AXES[axis]
     lines = [
-        "| task | method | offset | success (90 % CI) | median TTF | trials |",
+        f"| task | method | {axis} | success (90 % CI) | median TTF | trials |",
         "|---|---|---|---|---|---|",
     ]
-    for r in table.itertuples(index=False):
+    for r in table.to_dict("records"):
         lines.append(
-            f"| {r.task} | {r.method} | {100 * r.offset:.0f} cm | {r.success:.2f} ({r.success_lo:.2f}–"
-            f"{r.success_hi:.2f}) | {r.ttf_median:.2f} | {r.trials} |"
+            f"| {r['task']} | {r['method']} | {fmt.format(factor * r[axis])} | {r['success']:.2f} "
+            f"({r['success_lo']:.2f}–{r['success_hi']:.2f}) | {r['ttf_median']:.2f} | {r['trials']} |"
         )
-    lines += ["", f"Largest offset with at least {SURVIVAL:.0%} of the trials completed:", ""]
-    lines += ["| task | method | offset |", "|---|---|---|"]
-    for r in survives(table).itertuples(index=False):
-        where = "none" if np.isnan(r.offset) else f"{100 * r.offset:.0f} cm"
-        lines.append(f"| {r.task} | {r.method} | {where} |")
+    lines += ["", f"Largest {axis} error with at least {SURVIVAL:.0%} of the trials completed:", ""]
+    lines += [f"| task | method | {axis} |", "|---|---|---|"]
+    for r in survives(table, axis).to_dict("records"):
+        where = "none" if np.isnan(r[axis]) else fmt.format(factor * r[axis])
+        lines.append(f"| {r['task']} | {r['method']} | {where} |")
     return "\n".join(lines) + "\n"
 
 
-def write_robustness(df: pd.DataFrame, out_dir: str | Path) -> Path:
+def write_robustness(df: pd.DataFrame, out_dir: str | Path, axis: str = "offset") -> Path:
     """Write ``robustness.png``, ``robustness.csv`` and ``robustness.md`` into ``out_dir``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    table = summary(df)
-    figure(table, out / "robustness.png")
+    table = summary(df, axis=axis)
+    figure(table, out / "robustness.png", axis)
     table.to_csv(out / "robustness.csv", index=False)
-    (out / "robustness.md").write_text(markdown(table))
+    (out / "robustness.md").write_text(markdown(table, axis))
     return out
 
 
@@ -172,9 +184,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("sweep_dirs", nargs="+", metavar="SWEEP_DIR")
     parser.add_argument("--out-dir", required=True)
+    parser.add_argument("--axis", choices=sorted(AXES), default="offset", help="the error on the x axis")
     args = parser.parse_args(argv)
     try:
-        out = write_robustness(load(*args.sweep_dirs), args.out_dir)
+        out = write_robustness(load(*args.sweep_dirs), args.out_dir, args.axis)
     except (ValueError, OSError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from contactmpc.validate import Ge, Le, checked
+from contactmpc.validate import Ge, Le, OneOf, checked
 
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
@@ -177,7 +177,9 @@ class PerturbationDraw:
 class Perturbation:
     """How far the plant may differ from the planner's model; every width 0 (the default) is none.
 
-    Scales are drawn uniformly in ``[1 - w, 1 + w]`` for a half-width ``w``.
+    Scales are drawn uniformly in ``[1 - w, 1 + w]`` for a half-width ``w`` (``scale_draw="uniform"``),
+    or set to its edge, ``1 + w`` (``"high"``) or ``1 - w`` (``"low"``), when an experiment asks how large
+    an error a method survives.
 
     Args:
         object_offset: distance (m) of the object's initial position from the reference's, horizontal, in
@@ -193,6 +195,8 @@ class Perturbation:
         observation_noise: standard deviation of the noise on the object configuration the planner is
             given (m, rad), drawn afresh at every replan.
         delay: give the planner the state of one replan period earlier.
+        scale_draw: how a scale's factor is drawn from its half-width ``w``: ``uniform`` in
+            ``[1 - w, 1 + w]``, or exactly ``1 + w`` (``high``) or ``1 - w`` (``low``), drawing no number.
     """
 
     @checked
@@ -208,6 +212,7 @@ class Perturbation:
         push_impulse: Annotated[float, Ge(0)] = 0.0,
         observation_noise: Annotated[float, Ge(0)] = 0.0,
         delay: bool = False,
+        scale_draw: Annotated[str, OneOf("uniform", "high", "low")] = "uniform",
     ) -> None:
         self.object_offset = float(object_offset)
         self.object_yaw = float(object_yaw)
@@ -219,6 +224,7 @@ class Perturbation:
         self.push_impulse = float(push_impulse)
         self.observation_noise = float(observation_noise)
         self.delay = bool(delay)
+        self.scale_draw = scale_draw
 
     @staticmethod
     def generator(seed: int) -> np.random.Generator:
@@ -236,7 +242,9 @@ class Perturbation:
         """
 
         def scale(width: float) -> float:
-            return float(rng.uniform(1.0 - width, 1.0 + width)) if width > 0 else 1.0
+            if width == 0 or self.scale_draw != "uniform":
+                return 1.0 + {"uniform": 0.0, "high": width, "low": -width}[self.scale_draw]
+            return float(rng.uniform(1.0 - width, 1.0 + width))
 
         offset = (0.0, 0.0, 0.0)
         if self.object_offset > 0:

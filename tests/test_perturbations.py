@@ -57,6 +57,18 @@ def test_draws_are_seeded_recorded_and_none_draws_nothing() -> None:
     assert rng.bit_generator.state == before  # nothing drawn, no number taken
 
 
+def test_edge_draws_set_the_factor_and_take_no_number() -> None:
+    rng = Perturbation.generator(5)
+    before = rng.bit_generator.state
+    high = Perturbation(mass_scale=0.6, gain_scale=0.2, scale_draw="high").draw(rng, 10.0, 5)
+    low = Perturbation(mass_scale=0.6, scale_draw="low").draw(rng, 10.0, 5)
+    assert rng.bit_generator.state == before
+    assert high.mass_scale == pytest.approx(1.6) and high.gain_scale == pytest.approx(1.2)
+    assert low.mass_scale == pytest.approx(0.4) and low.friction_scale == 1.0
+    with pytest.raises(ValueError, match="scale_draw"):
+        Perturbation(mass_scale=0.6, scale_draw="max")
+
+
 def test_no_perturbation_is_bit_identical(scene_for) -> None:
     scene = scene_for("apple")
     ref = static_reference(scene, duration=0.5, frames=11)

@@ -55,3 +55,28 @@ def test_cli(sweep: Path, tmp_path: Path, capsys) -> None:
     assert (tmp_path / "out" / "robustness.png").stat().st_size > 5000
     assert "| apple | full | 3 cm | 0.00" in (tmp_path / "out" / "robustness.md").read_text()
     assert main([str(tmp_path / "empty"), "--out-dir", str(tmp_path / "x")]) == 2
+
+
+def test_mass_axis(tmp_path: Path) -> None:
+    """The mass error (drawn factor - 1) as the axis: robust survives +60 %, full only +30 %."""
+    job = 0
+    for method, limit in (("full", 0.3), ("robust", 0.6)):
+        for error in (0.0, 0.3, 0.6, 0.9):
+            for seed in range(3):
+                record = {
+                    "task": "bottle",
+                    "variant": method,
+                    "seed": seed,
+                    "status": "ok",
+                    "completed": error <= limit,
+                    "ttf": 1.0,
+                    "perturbation": {"object_offset": [0.0, 0.0, 0.0], "mass_scale": 1.0 + error},
+                }
+                (tmp_path / str(job)).mkdir()
+                (tmp_path / str(job) / "trial.json").write_text(json.dumps(record))
+                job += 1
+    surv = survives(summary(load(tmp_path), axis="mass"), axis="mass").set_index("method")["mass"]
+    assert surv["full"] == pytest.approx(0.3) and surv["robust"] == pytest.approx(0.6)
+    assert main([str(tmp_path), "--out-dir", str(tmp_path / "out"), "--axis", "mass"]) == 0
+    text = (tmp_path / "out" / "robustness.md").read_text()
+    assert "| bottle | robust | +60 % |" in text and "mass error" in text

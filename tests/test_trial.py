@@ -169,7 +169,7 @@ def test_multirun_goes_on_after_a_failure_and_resumes(tmp_path, reference_files)
 
 
 @pytest.mark.parametrize("visit", ["replay", "planner"])
-def test_benchmark_times_states_a_trial_visits(reference_files, tmp_path, visit):
+def test_benchmark_times_states_a_trial_visits(reference_files, tmp_path, visit, capsys):
     """job=benchmark: approach and contact states, plan vs bare rollout interleaved, wall and CPU time,
     per thread count; JSON written."""
     overrides = ["task=apple", "job=benchmark", f"task.reference_path={reference_files['apple']}", *TINY]
@@ -184,3 +184,19 @@ def test_benchmark_times_states_a_trial_visits(reference_files, tmp_path, visit)
         assert r["ncon"] >= 0 and r["nefc"] >= 0
     assert rows[0]["speedup"] == 1.0 and rows[2]["speedup"] == 1.0
     assert rows[0]["time"] <= rows[2]["time"]
+    # the option sets of conf/job/benchmark.yaml, priced against the scene's planning model per state
+    priced = result["planner_options"]
+    assert priced["scene"] == {"ccd_iterations": 10, "ccd_tolerance": 1e-6}
+    for state in ("approach", "contact"):
+        sets = priced["states"][state]
+        assert list(sets) == ["scene", "mujoco_ccd", "pyramidal", "solver_20"]
+        assert sets["scene"]["saving"] == 0.0
+        assert all(p["step_cpu_us"] > 0 and p["object_gap_mm"] >= 0 for p in sets.values())
+    if visit == "planner":  # the table and the quiet-vs-loaded comparison read it
+        from analysis.benchmarks import main as benchmarks_main
+
+        assert benchmarks_main([str(tmp_path), "--against", str(tmp_path)]) == 0
+        out = capsys.readouterr().out
+        assert "| apple | contact |" in out and "largest difference of a CPU-time ratio: 0.0 %" in out
+        assert benchmarks_main([str(tmp_path / "nothing")]) == 2
+        assert "no benchmark.json under" in capsys.readouterr().err

@@ -1,0 +1,160 @@
+"""The per-task benchmark table, and whether two benchmark runs (a quiet and a loaded machine) agree.
+
+Reads the ``benchmark.json`` files that ``job=benchmark`` writes (one per task, searched recursively;
+the newest per task) and prints, per task and state (approach, contact): ``ncon``, ``nefc``, CPU per
+step of the plant and of the planning model, the bare rollout's CPU time per planning iteration (one
+thread), the planner's overhead over it (CPU time), the speed-up of the planning iteration from one to
+two threads (wall time), what the default planning-model options save per rollout step against
+MuJoCo's (``mujoco_ccd`` priced) and what ``cone: pyramidal`` would save and cost; then per task the
+real-time factor of a trial on one thread at the benchmark's planner settings (simulated seconds per CPU
+second, from the same per-step costs as :mod:`analysis.budget`).
+
+With ``--against DIR`` it compares the ratios (overhead, CPU time; the planning model's step cost over
+the plant's; the option prices) of the two runs state by state and prints the largest relative
+difference: CPU-time ratios should not depend on what else the machine is doing.
+
+Command line::
+
+    python -m analysis.benchmarks DIR [--against DIR2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from analysis.aggregate import TASK_ORDER, ordered
+from analysis.budget import TaskCost
+
+
+def load(directory: str | Path) -> dict[str, dict]:
+    """Task name -> its newest ``benchmark.json`` under ``directory``."""
+    found: dict[str, tuple[float, dict]] = {}
+    for path in Path(directory).rglob("benchmark.json"):
+        result = json.loads(path.read_text())
+        mtime = path.stat().st_mtime
+        if result["task"] not in found or found[result["task"]][0] < mtime:
+            found[result["task"]] = (mtime, result)
+    if not found:
+        raise ValueError(f"no benchmark.json under {directory}")
+    return {task: result for task, (_, result) in found.items()}
+
+
+def _rows(result: dict, nthread: int) -> dict[str, dict]:
+    return {r["state"]: r for r in result["rows"] if r["nthread"] == nthread}
+
+
+def _option(result: dict, state: str, name: str) -> dict | None:
+    return (result.get("planner_options") or {}).get("states", {}).get(state, {}).get(name)
+
+
+def real_time_factor(result: dict, nthread: int = 1) -> float:
+    """Simulated seconds per second of a trial at the benchmark's planner settings: on one thread from
+    the CPU times, on ``nthread`` with the planning iteration divided by its measured speed-up."""
+    cost = TaskCost.from_benchmark(result)
+    per_second = cost.weighted(cost.plant_step_cpu) / result["plant_timestep"]
+    plan = result["num_samples"] * result["horizon_steps"] * cost.weighted(cost.sample_step_cpu)
+    plan *= cost.weighted(cost.overhead) / result["replan_period"]
+    if nthread > 1:
+        rows = _rows(result, nthread)
+        plan /= cost.weighted(tuple(rows[s]["speedup"] for s in ("approach", "contact")))
+    return 1.0 / (per_second + plan)
+
+
+def ratios(result: dict) -> dict[tuple[str, str], float]:
+    """The CPU-time ratios of a benchmark, by (state, name): the planner's overhead, the planning
+    model's step over the plant's, and each priced option set's rollout step over the scene's."""
+    out = {}
+    for state, r in _rows(result, 1).items():
+        out[(state, "overhead")] = r["overhead_cpu"]
+        out[(state, "model/plant step")] = r["planning_model_step_cpu_us"] / r["plant_step_cpu_us"]
+        priced = (result.get("planner_options") or {}).get("states", {}).get(state, {})
+        for name, p in priced.items():
+            if name != "scene":
+                out[(state, f"{name}/scene")] = p["step_cpu_us"] / priced["scene"]["step_cpu_us"]
+    return out
+
+
+def table(results: dict[str, dict]) -> str:
+    """The per-task markdown table (see the module docstring)."""
+    lines = [
+        "| task | state | ncon | nefc | plant µs/step | planning model µs/step | rollout s (1 thr) "
+        "| overhead | speed-up 2 thr | free saving | pyramidal: saving, gap |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for task in ordered(list(results), TASK_ORDER):
+        result = results[task]
+        one, two = _rows(result, 1), _rows(result, 2)
+        for state, r in one.items():
+            scene, ccd = _option(result, state, "scene"), _option(result, state, "mujoco_ccd")
+            pyr = _option(result, state, "pyramidal")
+            free = f"{100 * (1 - scene['step_cpu_us'] / ccd['step_cpu_us']):.1f} %" if scene and ccd else "–"
+            pyramidal = (
+                f"{100 * pyr['saving']:.0f} %, {pyr['object_gap_mm']:.2f} mm "
+                f"(vs {scene['object_gap_mm']:.2f})"
+                if pyr and scene
+                else "–"
+            )
+            speedup = f"{two[state]['speedup']:.2f}" if state in two else "–"
+            lines.append(
+                f"| {task} | {state} | {r['ncon']} | {r['nefc']} | {r['plant_step_cpu_us']:.1f} "
+                f"| {r['planning_model_step_cpu_us']:.1f} | {r['rollout_cpu_seconds']:.3f} "
+                f"| {r['overhead_cpu']:.3f} | {speedup} | {free} | {pyramidal} |"
+            )
+    lines += [
+        "",
+        "| task | samples x steps, replan | trial length | real time, 1 thread | 2 threads |",
+        "|---|---|---|---|---|",
+    ]
+    for task in ordered(list(results), TASK_ORDER):
+        r = results[task]
+        two = f"{real_time_factor(r, 2):.2f}x" if _rows(r, 2) else "–"
+        lines.append(
+            f"| {task} | {r['num_samples']} x {r['horizon_steps']}, {1e3 * r['replan_period']:.0f} ms "
+            f"| {r['duration']:.1f} s | {real_time_factor(r):.2f}x | {two} |"
+        )
+    return "\n".join(lines)
+
+
+def compare(quiet: dict[str, dict], loaded: dict[str, dict]) -> tuple[str, float]:
+    """Markdown of each ratio in both runs and their relative difference; the largest difference."""
+    lines = ["| task | state | ratio | quiet | loaded | difference |", "|---|---|---|---|---|---|"]
+    worst = 0.0
+    for task in ordered([t for t in quiet if t in loaded], TASK_ORDER):
+        a, b = ratios(quiet[task]), ratios(loaded[task])
+        for key in a:
+            if key not in b:
+                continue
+            diff = b[key] / a[key] - 1
+            worst = max(worst, abs(diff))
+            lines.append(
+                f"| {task} | {key[0]} | {key[1]} | {a[key]:.3f} | {b[key]:.3f} | {100 * diff:+.1f} % |"
+            )
+    return "\n".join(lines), worst
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m analysis.benchmarks", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("directory", help="benchmark.json files, one per task (searched recursively)")
+    parser.add_argument("--against", help="a second run of the same benchmarks (e.g. on a loaded machine)")
+    args = parser.parse_args(argv)
+    try:
+        results = load(args.directory)
+        print(table(results))
+        if args.against:
+            text, worst = compare(results, load(args.against))
+            print()
+            print(text)
+            print(f"\nlargest difference of a CPU-time ratio: {100 * worst:.1f} %")
+    except (ValueError, OSError, KeyError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
