@@ -260,7 +260,7 @@ def benchmark_planner(
     reference = get_reference(scene, reference_cache)
     threads = list(threads or [1, 2])
     planner.close()
-    planner.nthread = threads[0]
+    planner.nthread = max(threads)  # the visit: rollouts are independent, so any count visits the same states
     trial = Trial(scene, reference, sampler, cost, planner, seed, progress=False)
     states = planner_states(trial) if visit == "planner" else replay_states(scene, trial)
     rows = []
