@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import copy
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -193,30 +193,44 @@ def planner_states(trial: Trial) -> dict[str, tuple[float, np.ndarray]]:
     return {name: (float(visit.snapshots[t][0]), visit.snapshots[t]) for name, t in times.items()}
 
 
-def replay_states(scene: Scene, trial: Trial) -> dict[str, tuple[float, np.ndarray]]:
-    """The plant's full state at the instants of :func:`instants` while it tracks the reference's own
-    splines (no planning): name -> (control time, state)."""
+def replay(scene: Scene, trial: Trial, every: float) -> Iterator[tuple[float, mujoco.MjData]]:
+    """The plant tracking ``trial``'s reference splines (no planning; targets set every physics step)
+    from the trial's start: yields ``(control time, data)`` at t = 0 and then every ``every`` seconds,
+    without end. The data is live: copy what you keep (:func:`full_state`).
+    """
     m = scene.plant_model
     d = mujoco.MjData(m)
     hand0 = trial.planner.targets(np.array([0.0]))[0]
     scene.reset(d, hand_qpos=hand0, object_qpos=scene.task.start_object_qpos(trial.reference.object_qpos[0]))
     dt = m.opt.timestep
-    out: dict[str, tuple[float, np.ndarray]] = {}
-    state = np.empty(mujoco.mj_stateSize(m, STATE))
+    per = max(1, int(round(every / dt)))
     step = 0
-    for name, t in sorted(instants(trial).items(), key=lambda kv: kv[1]):
-        n = int(round(t / dt))
-        chunk = 1000
-        while step < n:
-            k = min(chunk, n - step)
-            targets = trial.planner.targets((step + np.arange(k)) * dt)
-            for j in range(k):
-                d.ctrl[scene.index.actuators] = targets[j]
-                mujoco.mj_step(m, d)
-            step += k
-        mujoco.mj_getState(m, d, state, STATE)
-        state[0] = n * dt
-        out[name] = (n * dt, state.copy())
+    while True:
+        yield step * dt, d
+        for u in trial.planner.targets((step + np.arange(per)) * dt):
+            d.ctrl[scene.index.actuators] = u
+            mujoco.mj_step(m, d)
+        step += per
+
+
+def full_state(model: mujoco.MjModel, data: mujoco.MjData, t: float) -> np.ndarray:
+    """(nstate,) the full-physics state of ``data`` with its time set to the control time ``t``."""
+    state = np.empty(mujoco.mj_stateSize(model, STATE))
+    mujoco.mj_getState(model, data, state, STATE)
+    state[0] = t
+    return state
+
+
+def replay_states(scene: Scene, trial: Trial) -> dict[str, tuple[float, np.ndarray]]:
+    """The plant's full state at the instants of :func:`instants` (on the planning model's 10 ms grid)
+    while it tracks the reference's own splines (no planning): name -> (control time, state)."""
+    pending = sorted(instants(trial).items(), key=lambda kv: kv[1])
+    out: dict[str, tuple[float, np.ndarray]] = {}
+    for t, d in replay(scene, trial, scene.planner_model.opt.timestep):
+        while pending and t >= pending[0][1] - 1e-9:
+            out[pending.pop(0)[0]] = (t, full_state(scene.plant_model, d, t))
+        if not pending:
+            return out
     return out
 
 
