@@ -21,25 +21,23 @@ Command line::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from analysis.aggregate import TASK_ORDER, ordered
-from analysis.budget import TaskCost
+from analysis.budget import TaskCost, newest_benchmarks
 
 
 def load(directory: str | Path) -> dict[str, dict]:
-    """Task name -> its newest ``benchmark.json`` under ``directory``."""
-    found: dict[str, tuple[float, dict]] = {}
-    for path in Path(directory).rglob("benchmark.json"):
-        result = json.loads(path.read_text())
-        mtime = path.stat().st_mtime
-        if result["task"] not in found or found[result["task"]][0] < mtime:
-            found[result["task"]] = (mtime, result)
+    """Task name -> its newest ``benchmark.json`` under ``directory`` (see ``newest_benchmarks``).
+
+    Raises:
+        ValueError: there is none.
+    """
+    found = newest_benchmarks(directory)
     if not found:
         raise ValueError(f"no benchmark.json under {directory}")
-    return {task: result for task, (_, result) in found.items()}
+    return found
 
 
 def _rows(result: dict, nthread: int) -> dict[str, dict]:

@@ -72,17 +72,23 @@ class TaskCost:
         return (1 - self.contact_fraction) * pair[0] + self.contact_fraction * pair[1]
 
 
-def load_benchmarks(directory: str | Path) -> dict[str, TaskCost]:
-    """Task name -> cost, from every ``benchmark.json`` under ``directory`` (the newest per task)."""
-    out: dict[str, tuple[float, TaskCost]] = {}
+def newest_benchmarks(directory: str | Path) -> dict[str, dict]:
+    """Task name -> the newest ``benchmark.json`` under ``directory`` (searched recursively) that has
+    the trial's length and contact share (older benchmarks lack them)."""
+    out: dict[str, tuple[float, dict]] = {}
     for path in Path(directory).rglob("benchmark.json"):
         result = json.loads(path.read_text())
         if "duration" not in result:
-            continue  # an older benchmark without the trial's length and contact share
+            continue
         mtime = path.stat().st_mtime
         if result["task"] not in out or out[result["task"]][0] < mtime:
-            out[result["task"]] = (mtime, TaskCost.from_benchmark(result))
-    return {task: cost for task, (_, cost) in out.items()}
+            out[result["task"]] = (mtime, result)
+    return {task: result for task, (_, result) in out.items()}
+
+
+def load_benchmarks(directory: str | Path) -> dict[str, TaskCost]:
+    """Task name -> cost, from every ``benchmark.json`` under ``directory`` (the newest per task)."""
+    return {task: TaskCost.from_benchmark(r) for task, r in newest_benchmarks(directory).items()}
 
 
 def job_seconds(cost: TaskCost, cfg) -> float:
