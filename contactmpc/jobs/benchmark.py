@@ -11,7 +11,8 @@ contact state is one where the controller holds the object (seconds to a minute,
 may have lost the object. At each state the job measures, per thread count:
 
 - one physics step of the plant model and of the planning model from that state (wall and CPU time per
-  step, averaged over a short run), with the state's ``ncon`` and ``nefc``;
+  step over runs of the same simulated time, timed interleaved, median), with the state's ``ncon`` and
+  ``nefc``;
 - a planning iteration (sampling, spline -> controls, rollout, cost, update) and the bare
   ``mujoco.rollout`` of the same controls, **interleaved** (plan, rollout, plan, rollout, ...) so that
   load on the machine hits both alike; the median wall time and the median CPU time (the process's,
@@ -74,20 +75,36 @@ def interleaved(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str,
     }
 
 
-def step_cost(model: mujoco.MjModel, state: np.ndarray, steps: int) -> dict[str, float]:
-    """Wall and CPU seconds per ``mj_step`` of ``model`` from ``state`` (controls held), over ``steps``
-    steps, with the ``ncon`` and ``nefc`` of the state."""
-    d = mujoco.MjData(model)
-    mujoco.mj_setState(model, d, state, STATE)
-    mujoco.mj_forward(model, d)
-    ncon, nefc = int(d.ncon), int(d.nefc)
-    mujoco.mj_step(model, d)  # warm-up
-    mujoco.mj_setState(model, d, state, STATE)
-    w0, c0 = _clock()
-    for _ in range(steps):
-        mujoco.mj_step(model, d)
-    w1, c1 = _clock()
-    return {"wall": (w1 - w0) / steps, "cpu": (c1 - c0) / steps, "ncon": ncon, "nefc": nefc}
+def step_costs(
+    models: dict[str, tuple[mujoco.MjModel, int]], state: np.ndarray, repeats: int
+) -> dict[str, dict[str, float]]:
+    """Wall and CPU seconds per ``mj_step`` of each model from ``state`` (controls held), each run of
+    its number of steps timed interleaved with the others' (median of ``repeats``), with the ``ncon``
+    and ``nefc`` of the state in that model.
+
+    Args:
+        models: name -> (model, steps per timed run); give each the same simulated time.
+        state: (nstate,) full-physics state.
+        repeats: timed runs of each.
+    """
+    out: dict[str, dict[str, float]] = {}
+    runs = {}
+    for name, (model, steps) in models.items():
+        d = mujoco.MjData(model)
+        mujoco.mj_setState(model, d, state, STATE)
+        mujoco.mj_forward(model, d)
+        out[name] = {"ncon": int(d.ncon), "nefc": int(d.nefc)}
+
+        def run(model=model, d=d, steps=steps) -> None:
+            mujoco.mj_setState(model, d, state, STATE)
+            for _ in range(steps):
+                mujoco.mj_step(model, d)
+
+        runs[name] = run
+    for name, timed in interleaved(runs, repeats).items():
+        steps = models[name][1]
+        out[name].update(wall=timed["wall"] / steps, cpu=timed["cpu"] / steps)
+    return out
 
 
 def object_gap(
@@ -259,7 +276,7 @@ def benchmark_planner(
         sampler, cost, planner: as for a trial (the planner's ``nthread`` is overridden).
         threads: thread counts to measure (default ``[1, 2]``).
         repeats: timed repetitions of each measurement (the median is reported).
-        physics_steps: steps per physics timing.
+        physics_steps: plant steps per physics timing (the planning model runs as much simulated time).
         visit: how the states are reached: the configured planner's closed loop, or the reference's
             splines replayed.
         planner_options: named sets of ``mjOption`` fields to price against the scene's planning model
@@ -280,8 +297,12 @@ def benchmark_planner(
     rows = []
     options: dict[str, dict[str, dict[str, float]]] = {}
     for name, (t, state) in states.items():
-        plant = step_cost(scene.plant_model, state, physics_steps)
-        model = step_cost(scene.planner_model, state, max(1, physics_steps // 10))
+        ratio = int(round(scene.planner_model.opt.timestep / scene.plant_model.opt.timestep))
+        steps = {
+            "plant": (scene.plant_model, physics_steps),
+            "model": (scene.planner_model, max(1, physics_steps // ratio)),  # the same simulated time
+        }
+        plant, model = step_costs(steps, state, repeats).values()
         theta0 = planner.theta.copy()
         for nthread in threads:
             planner.close()
