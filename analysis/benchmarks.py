@@ -7,7 +7,9 @@ thread), the planner's overhead over it (CPU time), the speed-up of the planning
 two threads (wall time), what the default planning-model options save per rollout step against
 MuJoCo's (``mujoco_ccd`` priced) and what ``cone: pyramidal`` would save and cost; then per task the
 real-time factor of a trial on one thread at the benchmark's planner settings (simulated seconds per CPU
-second, from the same per-step costs as :mod:`analysis.budget`).
+second, from the same per-step costs as :mod:`analysis.budget`), at its own planner settings and,
+priced from the same costs, at the paper's (128 samples x 250 steps, replanning every 10 ms), on one
+thread and on two.
 
 With ``--against DIR`` it compares the ratios (overhead, CPU time; the planning model's step cost over
 the plant's; the option prices) of the two runs state by state and prints the largest relative
@@ -48,13 +50,23 @@ def _option(result: dict, state: str, name: str) -> dict | None:
     return (result.get("planner_options") or {}).get("states", {}).get(state, {}).get(name)
 
 
-def real_time_factor(result: dict, nthread: int = 1) -> float:
-    """Simulated seconds per second of a trial at the benchmark's planner settings: on one thread from
-    the CPU times, on ``nthread`` with the planning iteration divided by its measured speed-up."""
+#: The paper's planner (preset=paper): samples, horizon steps, replan period (s).
+PAPER_PLANNER = (128, 250, 0.01)
+
+
+def real_time_factor(result: dict, nthread: int = 1, planner: tuple[int, int, float] | None = None) -> float:
+    """Simulated seconds per second of a trial: on one thread from the CPU times, on ``nthread`` with
+    the planning iteration divided by its measured speed-up. ``planner`` (samples, horizon steps,
+    replan period) prices other planner settings from the same per-sample-step costs; default: the
+    benchmark's own."""
     cost = TaskCost.from_benchmark(result)
+    samples, steps, replan = planner or (
+        result["num_samples"],
+        result["horizon_steps"],
+        result["replan_period"],
+    )
     per_second = cost.weighted(cost.plant_step_cpu) / result["plant_timestep"]
-    plan = result["num_samples"] * result["horizon_steps"] * cost.weighted(cost.sample_step_cpu)
-    plan *= cost.weighted(cost.overhead) / result["replan_period"]
+    plan = samples * steps * cost.weighted(cost.sample_step_cpu) * cost.weighted(cost.overhead) / replan
     if nthread > 1:
         rows = _rows(result, nthread)
         plan /= cost.weighted(tuple(rows[s]["speedup"] for s in ("approach", "contact")))
@@ -103,15 +115,17 @@ def table(results: dict[str, dict]) -> str:
             )
     lines += [
         "",
-        "| task | samples x steps, replan | trial length | real time, 1 thread | 2 threads |",
-        "|---|---|---|---|---|",
+        "| task | samples x steps, replan | trial length | real time, 1 thread | 2 threads "
+        "| paper's planner, 1 thread | 2 threads |",
+        "|---|---|---|---|---|---|---|",
     ]
     for task in ordered(list(results), TASK_ORDER):
         r = results[task]
-        two = f"{real_time_factor(r, 2):.2f}x" if _rows(r, 2) else "–"
+        factors = [real_time_factor(r, n, p) for p in (None, PAPER_PLANNER) for n in (1, 2)]
+        cells = " | ".join(f"1/{1 / f:.0f}" if f < 0.1 else f"{f:.2f}x" for f in factors)
         lines.append(
             f"| {task} | {r['num_samples']} x {r['horizon_steps']}, {1e3 * r['replan_period']:.0f} ms "
-            f"| {r['duration']:.1f} s | {real_time_factor(r):.2f}x | {two} |"
+            f"| {r['duration']:.1f} s | {cells} |"
         )
     return "\n".join(lines)
 
