@@ -148,11 +148,12 @@ def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names: Sequence[str], what: 
 
 # Planning-model options that save time without moving the plant-vs-planning-model agreement (the
 # Scene's default): convex collisions (ellipsoids, cylinders, boxes, meshes) stop after 10 iterations
-# instead of MuJoCo's 35, at the same tolerance. Measured by ``job=benchmark`` (README "Speed"): 3-11 %
-# less CPU per rollout step while the synthesised tasks' hands hold their objects, nothing measurable on
-# the paper tasks' meshes, the object gap unchanged (tests/test_agreement.py). Not free, so opt-in:
-# ``cone: pyramidal`` (10-54 % less in contact; gaps grow from 0.4 to 13 mm on the apple) and
-# ``iterations: 20`` (no saving, except 9 % on the held stapler, which then slips out: a 246 mm gap).
+# instead of MuJoCo's 35, at the same tolerance. Measured by ``job=benchmark`` (README "Speed"): 8-10 %
+# less CPU per rollout step while the hand holds the apple or the bottle, 3-4 % on the doorknobs, nothing
+# measurable on the stapler and the other paper tasks; the object gap unchanged (tests/test_agreement.py).
+# Not free, so opt-in: ``cone: pyramidal`` (0-54 % less in contact; the apple's gap grows from 0.4 to
+# 13 mm) and ``iterations: 20`` (no saving, except 9 % on the held stapler, which then slips out: a
+# 246 mm gap).
 FREE_PLANNER_OPTIONS: dict[str, Any] = {"ccd_iterations": 10, "ccd_tolerance": 1e-6}
 
 _OPTION_ENUMS = {
