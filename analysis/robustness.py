@@ -49,7 +49,8 @@ AXES = {
 
 
 def load(*dirs: str | Path) -> pd.DataFrame:
-    """One row per record: task, method, offset (m), mass (mass factor - 1), seed, status, completed, ttf."""
+    """One row per record: task, method, offset (m), mass (mass factor - 1), seed, status, completed, ttf,
+    milestones (name -> reached)."""
     rows = []
     for d in dirs:
         for path in sorted(Path(d).rglob("trial.json")):
@@ -69,6 +70,9 @@ def load(*dirs: str | Path) -> pd.DataFrame:
                     "status": r.get("status"),
                     "completed": bool(r.get("completed")) if r.get("status") == "ok" else False,
                     "ttf": r.get("ttf"),
+                    "milestones": {
+                        k[len("milestone_") :]: bool(v) for k, v in r.items() if k.startswith("milestone_")
+                    },
                 }
             )
     if not rows:
@@ -86,7 +90,7 @@ def bootstrap(values: np.ndarray, rng: np.random.Generator, draws: int = 2000) -
 
 def summary(df: pd.DataFrame, seed: int = 0, axis: str = "offset") -> pd.DataFrame:
     """Per task, method and error (column ``axis`` of :data:`AXES`): trials, success rate and mean TTF
-    with their 90 % bootstrap intervals, median TTF."""
+    with their 90 % bootstrap intervals, median TTF, and how many trials reached each milestone."""
     rng = np.random.default_rng(seed)
     rows = []
     for task in ordered(df["task"], TASK_ORDER):
@@ -98,6 +102,10 @@ def summary(df: pd.DataFrame, seed: int = 0, axis: str = "offset") -> pd.DataFra
                 lo, hi = bootstrap(ok, rng)
                 ttf = pd.to_numeric(g["ttf"], errors="coerce").dropna()
                 ttf_lo, ttf_hi = bootstrap(ttf.to_numpy(float), rng)
+                reached: dict[str, int] = {}
+                for ms in g["milestones"]:
+                    for name, ok_ in ms.items():
+                        reached[name] = reached.get(name, 0) + int(ok_)
                 rows.append(
                     {
                         "task": task,
@@ -112,6 +120,7 @@ def summary(df: pd.DataFrame, seed: int = 0, axis: str = "offset") -> pd.DataFra
                         "ttf_mean": float(ttf.mean()) if len(ttf) else np.nan,
                         "ttf_lo": ttf_lo,
                         "ttf_hi": ttf_hi,
+                        "milestones": " · ".join(f"{n} {k}/{len(g)}" for n, k in reached.items()),
                     }
                 )
     return pd.DataFrame(rows)
@@ -167,14 +176,14 @@ def markdown(table: pd.DataFrame, axis: str = "offset") -> str:
     """The table (success and mean TTF with their intervals) and the largest error each method survives."""
     _, factor, fmt = AXES[axis]
     lines = [
-        f"| task | method | {axis} | success (90 % CI) | mean TTF (90 % CI) | trials |",
+        f"| task | method | {axis} | success (90 % CI) | mean TTF (90 % CI) | milestones reached |",
         "|---|---|---|---|---|---|",
     ]
     for r in table.to_dict("records"):
         lines.append(
             f"| {r['task']} | {r['method']} | {fmt.format(factor * r[axis])} | {r['success']:.2f} "
             f"({r['success_lo']:.2f}–{r['success_hi']:.2f}) | {r['ttf_mean']:.2f} ({r['ttf_lo']:.2f}–"
-            f"{r['ttf_hi']:.2f}) | {r['trials']} |"
+            f"{r['ttf_hi']:.2f}) | {r['milestones'] or '–'} |"
         )
     lines += ["", f"Largest {axis} error with at least {SURVIVAL:.0%} of the trials completed:", ""]
     lines += [f"| task | method | {axis} |", "|---|---|---|"]

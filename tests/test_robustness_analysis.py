@@ -71,6 +71,7 @@ def test_mass_axis(tmp_path: Path) -> None:
                     "completed": error <= limit,
                     "ttf": 1.0,
                     "perturbation": {"object_offset": [0.0, 0.0, 0.0], "mass_scale": 1.0 + error},
+                    "milestone_lifted": error <= limit + 0.3,
                 }
                 (tmp_path / str(job)).mkdir()
                 (tmp_path / str(job) / "trial.json").write_text(json.dumps(record))
@@ -80,3 +81,5 @@ def test_mass_axis(tmp_path: Path) -> None:
     assert main([str(tmp_path), "--out-dir", str(tmp_path / "out"), "--axis", "mass"]) == 0
     text = (tmp_path / "out" / "robustness.md").read_text()
     assert "| bottle | robust | +60 % |" in text and "mass error" in text
+    assert "| bottle | full | +60 % | 0.00 (0.00–0.00) | 1.00 (1.00–1.00) | lifted 3/3 |" in text
+    assert "| bottle | full | +90 % | 0.00 (0.00–0.00) | 1.00 (1.00–1.00) | lifted 0/3 |" in text
