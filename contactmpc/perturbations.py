@@ -242,9 +242,11 @@ class Perturbation:
         """
 
         def scale(width: float) -> float:
-            if width == 0 or self.scale_draw != "uniform":
-                return 1.0 + {"uniform": 0.0, "high": width, "low": -width}[self.scale_draw]
-            return float(rng.uniform(1.0 - width, 1.0 + width))
+            if self.scale_draw == "high":
+                return 1.0 + width
+            if self.scale_draw == "low":
+                return 1.0 - width
+            return float(rng.uniform(1.0 - width, 1.0 + width)) if width > 0 else 1.0
 
         offset = (0.0, 0.0, 0.0)
         if self.object_offset > 0:
