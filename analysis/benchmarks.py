@@ -46,8 +46,13 @@ def _rows(result: dict, nthread: int) -> dict[str, dict]:
     return {r["state"]: r for r in result["rows"] if r["nthread"] == nthread}
 
 
+def _priced(result: dict, state: str) -> dict[str, dict]:
+    """The option sets priced at ``state`` (name -> price), empty for a benchmark without them."""
+    return (result.get("planner_options") or {}).get("states", {}).get(state, {})
+
+
 def _option(result: dict, state: str, name: str) -> dict | None:
-    return (result.get("planner_options") or {}).get("states", {}).get(state, {}).get(name)
+    return _priced(result, state).get(name)
 
 
 #: The paper's planner (preset=paper): samples, horizon steps, replan period (s).
@@ -80,7 +85,7 @@ def ratios(result: dict) -> dict[tuple[str, str], float]:
     for state, r in _rows(result, 1).items():
         out[(state, "overhead")] = r["overhead_cpu"]
         out[(state, "model/plant step")] = r["planning_model_step_cpu_us"] / r["plant_step_cpu_us"]
-        priced = (result.get("planner_options") or {}).get("states", {}).get(state, {})
+        priced = _priced(result, state)
         for name, p in priced.items():
             if name != "scene":
                 out[(state, f"{name}/scene")] = p["step_cpu_us"] / priced["scene"]["step_cpu_us"]

@@ -5,9 +5,9 @@ method: ``replay``, ``full``, ``joint_space``, ``wrist``, ``robust``) and its dr
 error on the x axis (``--axis``) is the object's initial offset (``offset``: the offset's length, rounded
 to the millimetre; ``experiment=robustness_lite``) or its mass error (``mass``: the drawn mass factor
 minus one, rounded to a tenth of a per cent; ``experiment=robustness_mass_lite``). Per task, method and
-error it reports the success rate (share of trials completed) with a bootstrap 90 % confidence interval
-over the trials, the median TTF, and per task and method the largest error at which at least 80 % of
-the trials succeed.
+error it reports the success rate (share of trials completed) and the mean TTF, each with a bootstrap
+90 % confidence interval over the trials, how many trials reached each milestone, and per task and
+method the largest error at which at least 80 % of the trials succeed.
 
 Outputs (:func:`write_robustness`): ``robustness.png`` (one column per task: success rate and mean TTF
 against the error, a line and a 90 % band per method), ``robustness.csv`` and ``robustness.md``.
@@ -103,9 +103,9 @@ def summary(df: pd.DataFrame, seed: int = 0, axis: str = "offset") -> pd.DataFra
                 ttf = pd.to_numeric(g["ttf"], errors="coerce").dropna()
                 ttf_lo, ttf_hi = bootstrap(ttf.to_numpy(float), rng)
                 reached: dict[str, int] = {}
-                for ms in g["milestones"]:
-                    for name, ok_ in ms.items():
-                        reached[name] = reached.get(name, 0) + int(ok_)
+                for milestones in g["milestones"]:
+                    for name, hit in milestones.items():
+                        reached[name] = reached.get(name, 0) + int(hit)
                 rows.append(
                     {
                         "task": task,

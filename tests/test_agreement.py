@@ -1,12 +1,12 @@
 """Planner-vs-plant agreement on every task, and what the default planning-model options cost in it.
 
-The plant (1 ms) replays the task's reference splines from its start; at the instants where the hand
-touches the object and the object moves fastest, the plant and the planning model (10 ms) run the same
-reference controls for 0.5 s and the object's positions are compared (``object_gap``). The planning
-model is built as the default config builds it, and with its ``scene.planner_options`` (the free
-savings, :data:`contactmpc.scene.FREE_PLANNER_OPTIONS`) it must agree with the plant as well as with
-MuJoCo's defaults. The
-paper tasks run when ``CONTACTMPC_PAPER_DATA`` names the authors' data.
+The plant (1 ms) replays the task's reference splines from its start; at the instants where the most
+hand links touch the object (and among those, the object moves fastest), the plant and the planning
+model (10 ms) run the same reference controls for 0.5 s and the object's positions are compared
+(``object_gap``). The planning model is built as the default config builds it, and with its
+``scene.planner_options`` (the free savings, :data:`contactmpc.scene.FREE_PLANNER_OPTIONS`) it must agree
+with the plant as well as with MuJoCo's defaults. The paper tasks run when ``CONTACTMPC_PAPER_DATA``
+names the authors' data.
 
 Run ``pytest tests/test_agreement.py -s`` to see the gaps.
 """
