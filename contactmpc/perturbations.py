@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from contactmpc.validate import Ge, Le, OneOf, checked
+from contactmpc.validate import ConfigError, Ge, Le, OneOf, checked
 
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
@@ -174,6 +174,40 @@ class PerturbationDraw:
         return out
 
 
+def support(model: mujoco.MjModel, position: np.ndarray) -> tuple[str, float] | None:
+    """What an object at ``position`` stands on: the highest static, colliding box or plane with a
+    level top at or below ``position`` whose footprint holds it, and how far the position is from the
+    footprint's nearest edge (m; ``inf`` for an unbounded plane). ``None`` when nothing holds it.
+
+    Args:
+        model: the plant model.
+        position: (3,) world position (e.g. a free object's initial position).
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    best: tuple[float, str, float] | None = None  # (top height, name, reach)
+    box, plane = int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_PLANE)
+    for g in range(model.ngeom):
+        static = model.body_weldid[model.geom_bodyid[g]] == 0
+        collides = model.geom_contype[g] or model.geom_conaffinity[g]
+        kind = int(model.geom_type[g])
+        if not (static and collides and kind in (box, plane)):
+            continue
+        frame = data.geom_xmat[g].reshape(3, 3)
+        if frame[2, 2] < 0.999:  # not level
+            continue
+        size = model.geom_size[g]
+        top = data.geom_xpos[g][2] + (size[2] if kind == box else 0.0)
+        if top > position[2] + 1e-6:
+            continue
+        local = frame.T @ (position - data.geom_xpos[g])
+        half = [np.inf if kind == plane and v == 0 else v for v in size[:2]]
+        reach = min(half[0] - abs(local[0]), half[1] - abs(local[1]))
+        if reach >= 0 and (best is None or top > best[0]):
+            best = (top, model.geom(g).name, float(reach))
+    return None if best is None else best[1:]
+
+
 class Perturbation:
     """How far the plant may differ from the planner's model; every width 0 (the default) is none.
 
@@ -225,6 +259,34 @@ class Perturbation:
         self.observation_noise = float(observation_noise)
         self.delay = bool(delay)
         self.scale_draw = scale_draw
+
+    def check(self, scene: Scene, object_qpos: np.ndarray) -> None:
+        """Refuse what the plant cannot physically take: an object offset on a task without a free
+        object (it would be ignored), or one that puts the object beyond the edge of what it stands on.
+        (A scale's half-width is at most 0.99, so no mass, friction or size reaches 0.)
+
+        Args:
+            scene: the scene.
+            object_qpos: (n_o,) the object's configuration at the start of the trial.
+
+        Raises:
+            ConfigError: one line naming the value and the support.
+        """
+        if self.object_offset == 0.0:
+            return
+        task = scene.task
+        if task.layout.quat_index is None:
+            raise ConfigError(
+                f"perturbation.object_offset = {self.object_offset:g} m moves a free object, and task "
+                f"'{task.name}' has none"
+            )
+        c = task.layout.free_columns[0]
+        found = support(scene.plant_model, np.asarray(object_qpos[c : c + 3], dtype=float))
+        if found is not None and self.object_offset > found[1]:
+            raise ConfigError(
+                f"perturbation.object_offset = {self.object_offset:g} m takes the object of task "
+                f"'{task.name}' off its support: geom '{found[0]}' ends {found[1]:.3f} m from its start"
+            )
 
     @staticmethod
     def generator(seed: int) -> np.random.Generator:

@@ -3,6 +3,12 @@
 Synchronous and seeded: at every replan time the planner runs on the plant's current state, then
 the plant advances with joint targets from the committed splines evaluated at every physics step.
 The same scene, reference, config and seed give the same log, bit for bit.
+
+With a planning latency L (``planner.latency`` or ``planner.latency_model``, MuJoCo MPC's loop
+simulated), the plan computed from the state at t takes effect at t + L; until then the plant follows
+the previous plan. Plans start every ``max(replan_period, L)``: with L the longer, the next plan
+starts from the state at t + L, when the last one takes effect (continuous replanning). L = 0 is the
+synchronous loop, bit for bit.
 """
 
 from __future__ import annotations
@@ -21,7 +27,9 @@ from contactmpc.control.samplers import SplineSpace
 from contactmpc.perturbations import Perturbation, PerturbationDraw
 from contactmpc.reference.data import Reference
 from contactmpc.scene import Scene
-from contactmpc.validate import Ge, Gt, checked
+from contactmpc.validate import ConfigError, Ge, Gt, checked
+
+TIMING_TOLERANCE = 1e-9  # s: how far a period may be from a whole number of plant steps
 
 
 class PlantDiverged(RuntimeError):
@@ -57,6 +65,47 @@ class TrialLog:
     def arrays(self) -> dict[str, np.ndarray]:
         """The log as a dict of stacked arrays."""
         return {k: np.stack(v) for k, v in self.columns.items()}
+
+
+def check_timing(
+    plant_timestep: float, planner_timestep: float, horizon: float, replan_period: float, latency: float
+) -> None:
+    """Refuse timing a loop can only round: each value must be what the loop will really use.
+
+    ``planner_timestep``, ``replan_period`` and ``latency`` must be whole multiples of the plant step
+    (within :data:`TIMING_TOLERANCE`; ``latency`` may be 0), and the horizon at least one planning step.
+
+    Raises:
+        ConfigError: one line naming the values.
+    """
+    for name, value in (
+        ("scene.planner_timestep", planner_timestep),
+        ("planner.replan_period", replan_period),
+        ("planner.latency", latency),
+    ):
+        steps = round(value / plant_timestep)
+        if value < 0 or (steps < 1 and value != 0) or abs(value - steps * plant_timestep) > TIMING_TOLERANCE:
+            raise ConfigError(
+                f"{name} = {value:g} s is not a whole number of plant steps "
+                f"(scene.plant_timestep = {plant_timestep:g} s): the loop would round it to "
+                f"{max(steps, 1) * plant_timestep:g} s"
+            )
+    if horizon < planner_timestep - TIMING_TOLERANCE:
+        raise ConfigError(
+            f"planner.horizon = {horizon:g} s is shorter than one planning step "
+            f"(scene.planner_timestep = {planner_timestep:g} s)"
+        )
+
+
+def check_planner_timing(scene: Scene, planner: Planner) -> None:
+    """:func:`check_timing` of a planner's horizon, replan period and fixed latency on a scene."""
+    check_timing(
+        scene.plant_model.opt.timestep,
+        scene.planner_timestep,
+        planner.horizon,
+        planner.replan_period,
+        planner.latency,
+    )
 
 
 class Trial:
@@ -96,13 +145,18 @@ class Trial:
         self.draw: PerturbationDraw | None = None
         self.seed = int(seed)
         self.progress = progress
+        plant_dt = scene.plant_model.opt.timestep
+        check_planner_timing(scene, planner)
         self.problem = Problem.build(
             scene, reference, space, cost, planner.horizon, num_control_points, duration
         )
         self.track = self.problem.track
         self.spline = self.problem.spline
         self.duration = self.problem.duration
+        self.perturbation.check(scene, scene.task.start_object_qpos(reference.object_qpos[0]))
         planner.bind(self.problem)
+        self.latency = planner.latency_for(plant_dt)  # a modelled one lies on the plant's grid
+        self.replan_interval = max(planner.replan_period, self.latency)
 
     def run(self, snapshots: tuple[float, ...] = ()) -> TrialLog:
         """Simulate the closed loop for ``duration`` seconds of control time.
@@ -126,7 +180,8 @@ class Trial:
         rng = np.random.default_rng(self.seed)
         idx = scene.index
         dt = m.opt.timestep
-        per_plan = max(1, int(round(planner.replan_period / dt)))
+        per_plan = int(round(self.replan_interval / dt))
+        lag = int(round(self.latency / dt))  # plant steps on the previous plan after each replan
         n_steps = int(round(self.duration / dt))
         hand0 = planner.targets(np.array([0.0]))[0]
         qo0 = draw.initial_object_qpos(scene, scene.task.start_object_qpos(self.reference.object_qpos[0]))
@@ -152,8 +207,15 @@ class Trial:
                 seen = draw.observe(scene, state, prng)
                 if draw.delay:
                     seen, earlier = (seen if earlier is None else earlier), seen.copy()
+                if lag:  # the previous plan's targets until this one takes effect
+                    previous = planner.targets(t + offsets[:lag])
                 info = planner.plan(t, seen, rng)
-                targets = planner.targets(t + offsets)
+                if not lag:
+                    targets = planner.targets(t + offsets)
+                elif lag < per_plan:
+                    targets = np.concatenate([previous, planner.targets(t + offsets[lag:])])
+                else:  # continuous replanning: this plan takes effect when the next one starts
+                    targets = previous
                 self._log(log, d, t, targets[0], info)
                 for j in range(min(per_plan, n_steps - k)):
                     d.ctrl[idx.actuators] = targets[j]

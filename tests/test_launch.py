@@ -39,6 +39,13 @@ def launch_py(*args, timeout=300):
     )
 
 
+def _as_from_a_terminal() -> None:
+    """In the child: Ctrl-C's default disposition. A shell that starts the tests in the background
+    (``nohup … &``) has them ignore SIGINT, which its children inherit, and Python then installs no
+    KeyboardInterrupt handler: the test would see the harness, not launch.py."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start(*args):
     """``launch.py`` in its own process group, as a terminal runs it (Ctrl-C reaches the whole group)."""
     return subprocess.Popen(
@@ -48,6 +55,7 @@ def start(*args):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=_as_from_a_terminal,
     )
 
 

@@ -109,7 +109,9 @@ def test_same_seed_same_log_and_different_seeds_differ(scene_for):
     for key in a:
         if key != "plan_seconds":
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
-    assert not np.array_equal(a["hand_target"], c["hand_target"])
+    # another seed draws other candidates: the best of them (its cost, or what it commits) differs
+    same = all(np.array_equal(a[k], c[k]) for k in ("best_cost", "hand_target"))
+    assert not same
     # the thread count does not enter: a record is the same on a laptop and on a cluster node
     one = _trial(scene, ref, 7, nthread=1)
     for key in a:

@@ -27,7 +27,7 @@ from contactmpc.records import (
 )
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
-from contactmpc.trial import PlantDiverged, Trial
+from contactmpc.trial import PlantDiverged, Trial, check_planner_timing
 from contactmpc.validate import Ge, Gt, OneOf, checked
 
 logger = logging.getLogger(__name__)
@@ -95,6 +95,7 @@ def run_trial(
     wall0 = time.perf_counter()
     try:
         scene = make_scene()
+        check_planner_timing(scene, planner)  # before a reference is synthesised
         reference = get_reference(scene, reference_cache)
         trial = Trial(
             scene,
@@ -230,5 +231,7 @@ def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected:
         "real_time_factor": sim / wall if wall > 0 else None,
         "num_control_points": trial.spline.num_control_points,
         "num_plans": int(len(plan)),
+        "replan_interval": trial.replan_interval,
+        "latency": trial.latency,
         "diverged_rollouts": int(np.sum(series["num_diverged"])),
     }

@@ -20,10 +20,11 @@ from typing import Annotated
 import numpy as np
 
 from contactmpc.control.cost import as_index
+from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.problem import Problem
 from contactmpc.control.robust import ModelEnsemble
 from contactmpc.control.rollout import RolloutEngine
-from contactmpc.validate import Ge, Gt, checked
+from contactmpc.validate import ConfigError, Ge, Gt, checked
 
 
 @dataclass
@@ -56,7 +57,14 @@ class Planner:
     Args:
         num_samples: rollouts per planning iteration (sample 0 is the nominal).
         horizon: planning horizon (s).
-        replan_period: control time between planning iterations (s).
+        replan_period: control time between the starts of planning iterations (s), at least: with a
+            latency longer than it, the next plan starts when the last one takes effect (MuJoCo MPC's
+            continuous replanning). A whole number of plant steps.
+        latency: planning latency (s): the plan computed from the state at t takes effect at t +
+            latency, the plant following the previous plan until then. 0: at once (the synchronous
+            loop). A whole number of plant steps.
+        latency_model: model the latency from the planner's size instead
+            (:class:`~contactmpc.control.latency.ComputeLatency`); ``latency`` must then be 0.
         nthread: rollout threads; ``None`` = the CPUs this process may use (its affinity mask and
             cgroup quota, :func:`~contactmpc.control.rollout.available_cpus`), so a Slurm job with
             8 CPUs on a 64-core node starts 8.
@@ -74,7 +82,16 @@ class Planner:
         replan_period: Annotated[float, Gt(0)] = 0.01,
         nthread: Annotated[int, Ge(1)] | None = None,
         robust: ModelEnsemble | None = None,
+        latency: Annotated[float, Ge(0)] = 0.0,
+        latency_model: ComputeLatency | None = None,
     ) -> None:
+        if latency and latency_model is not None:
+            raise ConfigError(
+                f"{type(self).__name__}: latency = {latency:g} s and a latency_model are both set: "
+                "choose one (planner.latency=0 or planner.latency_model=null)"
+            )
+        self.latency = float(latency)
+        self.latency_model = latency_model
         self.num_samples = int(num_samples)
         self.robust = robust
         self._models: list | None = None
@@ -124,6 +141,15 @@ class Planner:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
         if self.robust is not None:
             self._models = self.robust.build(problem.scene)
+
+    def latency_for(self, plant_timestep: float) -> float:
+        """The planning latency (s) a trial applies: ``latency``, or the model's price of one iteration
+        (its rollouts: samples x the robust ensemble's models; none for a planner without rollouts).
+        Needs :meth:`bind` (the horizon's steps)."""
+        if self.latency_model is None:
+            return self.latency
+        rollouts = self.num_samples * (len(self._models) if self._models else 1) if self.needs_rollouts else 0
+        return self.latency_model.seconds(rollouts, self.steps, plant_timestep)
 
     def close(self) -> None:
         """Release the rollout threads."""

@@ -1,0 +1,154 @@
+"""The loop's timing: a planning latency applied exactly (MuJoCo MPC's loop, simulated), 0 as the
+synchronous loop, and timing the loop could only round refused with one line."""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from contactmpc.control.cost import TrackingCost
+from contactmpc.control.latency import ComputeLatency
+from contactmpc.control.planners import PredictiveSampling
+from contactmpc.control.samplers import PCASplineSpace
+from contactmpc.trial import Trial, check_timing
+from contactmpc.validate import ConfigError
+from tests.helpers import static_reference
+from tests.test_launch import QUIET, launch_py
+
+
+def _trial(scene, ref, duration=0.2, **planner_args):
+    planner = PredictiveSampling(num_samples=8, horizon=0.2, nthread=1, **planner_args)
+    trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(lambda_v=0.0), planner, 3, duration=duration,
+                  progress=False)  # fmt: skip
+    return trial, planner
+
+
+def _recorded(monkeypatch, trial, planner):
+    """Run ``trial``, recording every plant step's control time and finger targets, and the committed
+    control points after every plan: (steps [(t, ctrl)], plans [(t, theta)], log)."""
+    steps, plans = [], []
+    scene = trial.scene
+    real_step, real_plan = mujoco.mj_step, planner.plan
+    fingers = scene.index.actuators
+
+    def step(m, d, *args):
+        steps.append((len(steps) * m.opt.timestep, d.ctrl[fingers].copy()))
+        real_step(m, d, *args)
+
+    def plan(t, state, rng):
+        info = real_plan(t, state, rng)
+        plans.append((t, planner.theta.copy()))
+        return info
+
+    monkeypatch.setattr(mujoco, "mj_step", step)
+    monkeypatch.setattr(planner, "plan", plan)
+    try:
+        log = trial.run().arrays()
+    finally:
+        planner.close()
+    return steps, plans, log
+
+
+@pytest.mark.parametrize("latency", [0.0, 0.02])
+def test_a_plan_takes_effect_exactly_its_latency_later(monkeypatch, scene_for, latency):
+    """Every plant step runs on the plan committed at the last plan start at least ``latency`` before
+    it; the steps in between run on the plan before. With latency 0, on the plan of its own period."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.3, frames=11)
+    trial, planner = _trial(scene, ref, replan_period=0.05, latency=latency)
+    steps, plans, log = _recorded(monkeypatch, trial, planner)
+    assert trial.latency == latency and trial.replan_interval == 0.05
+    np.testing.assert_allclose([t for t, _ in plans], [0.0, 0.05, 0.1, 0.15])
+    space, spline = planner.problem.space, planner.problem.spline
+    theta0 = planner.problem.theta0
+    changed = 0
+    for t, ctrl in steps:
+        k = int(np.floor((t - latency) / 0.05 + 1e-9))  # the last plan in effect at t
+        theta = theta0 if k < 0 else plans[k][1]
+        expected = space.controls(theta, spline.basis(np.array([t])))[0]
+        np.testing.assert_allclose(ctrl, expected, rtol=0, atol=1e-12, err_msg=f"t={t:.3f}")
+        if k >= 1 and abs(t - k * 0.05 - latency) < 1e-9:  # the switch from plan k-1 to plan k
+            before = space.controls(plans[k - 1][1], spline.basis(np.array([t])))[0]
+            changed += np.abs(before - expected).max() > 1e-6
+    assert changed >= 2, "the plans never differed where they switch: nothing was tested"
+    np.testing.assert_allclose(log["time"], [0.0, 0.05, 0.1, 0.15])
+
+
+def test_latency_zero_is_the_synchronous_loop_bit_for_bit(scene_for):
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.3, frames=11)
+    runs = []
+    for args in ({}, {"latency": 0.0}):
+        trial, planner = _trial(scene, ref, replan_period=0.05, **args)
+        try:
+            runs.append(trial.run().arrays())
+        finally:
+            planner.close()
+    for key in runs[0]:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(runs[0][key], runs[1][key], err_msg=key)
+
+
+def test_a_latency_longer_than_the_replan_period_replans_continuously(scene_for):
+    """MuJoCo MPC's loop: the next plan starts when the last one takes effect, from that state."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.3, frames=11)
+    trial, planner = _trial(scene, ref, duration=0.25, replan_period=0.01, latency=0.07)
+    try:
+        log = trial.run().arrays()
+    finally:
+        planner.close()
+    assert trial.replan_interval == 0.07
+    np.testing.assert_allclose(log["time"], [0.0, 0.07, 0.14, 0.21])
+
+
+def test_the_modelled_latency_is_the_planners_compute_on_the_plant_grid(scene_for):
+    model = ComputeLatency(sample_step_seconds=16e-6, threads=7)
+    # the paper's planner: 128 samples x 250 steps x 16 us / 7 threads = 73.14 ms -> 74 plant steps
+    assert model.seconds(128, 250, 0.001) == pytest.approx(0.074)
+    assert model.seconds(7, 1000, 0.001) == pytest.approx(0.016)  # exactly on the grid stays there
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.3, frames=11)
+    trial, planner = _trial(scene, ref, replan_period=0.01, latency_model=model)
+    planner.close()
+    assert trial.latency == pytest.approx(model.seconds(8, 20, 0.001)) == pytest.approx(0.001)
+    assert trial.replan_interval == 0.01
+    with pytest.raises(ConfigError, match="latency = 0.02 s and a latency_model"):
+        PredictiveSampling(latency=0.02, latency_model=model)
+
+
+@pytest.mark.parametrize(
+    ("values", "named"),
+    [
+        ({"horizon": 0.005}, "planner.horizon = 0.005 s is shorter than one planning step"),
+        ({"replan_period": 0.0125}, "planner.replan_period = 0.0125 s is not a whole number of plant steps"),
+        ({"replan_period": 0.0001}, "planner.replan_period = 0.0001 s is not a whole number"),
+        ({"planner_timestep": 0.0105}, "scene.planner_timestep = 0.0105 s is not a whole number"),
+        ({"latency": 0.0105}, "planner.latency = 0.0105 s is not a whole number"),
+        ({"latency": -0.001}, "planner.latency = -0.001 s is not a whole number"),
+    ],
+)
+def test_timing_the_loop_would_round_is_refused(values, named):
+    args = {"plant_timestep": 0.001, "planner_timestep": 0.01, "horizon": 1.0, "replan_period": 0.05,
+            "latency": 0.0} | values  # fmt: skip
+    with pytest.raises(ConfigError, match=named):
+        check_timing(**args)
+    check_timing(0.001, 0.01, 1.0, 0.05, 0.0)
+    check_timing(0.001, 0.01, 0.01, 0.07, 0.074)  # what the values may be
+    check_timing(0.002, 0.01, 1.0, 0.3, 0.1)
+
+
+@pytest.mark.slow
+def test_a_horizon_shorter_than_a_planning_step_stops_the_job_with_one_line(tmp_path):
+    run = tmp_path / "run"
+    r = launch_py("planner.horizon=0.005", "duration=0.1", f"hydra.run.dir={run}", *QUIET)
+    assert r.returncode == 1
+    assert r.stderr.strip().splitlines() == [
+        "contactmpc: error: ConfigError: planner.horizon = 0.005 s is shorter than one planning step "
+        "(scene.planner_timestep = 0.01 s)"
+    ]
+    record = json.loads((run / "trial.json").read_text())
+    assert record["status"] == "error" and "planner.horizon" in record["error"]
