@@ -5,7 +5,8 @@ sweeper does), and prices each from the ``benchmark.json`` of its task (``job=be
 costs are scaled to the job's planner): per planning iteration, the bare rollout's CPU time per sample
 and step times the job's samples and horizon steps times the planner's overhead; per physics step, the
 plant's; each weighted by the share of the trial in contact (contact state) and out of it (approach
-state). A trial of ``T`` seconds costs ``T / replan_period`` planning iterations and ``T / plant_dt``
+state). A trial of ``T`` seconds costs ``T / max(replan_period, latency)`` planning iterations (the
+latency fixed, or priced by the planner's ``latency_model``) and ``T / plant_dt``
 plant steps (a planner without rollouts, ``replay``, only the latter). Robust planning multiplies the
 rollouts by its ``num_models``.
 
@@ -31,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from hydra.utils import instantiate
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -104,7 +106,11 @@ def job_seconds(cost: TaskCost, cfg) -> float:
     models = int(planner.robust.num_models) if planner.get("robust") else 1
     per_plan = int(planner.num_samples) * steps * models * cost.weighted(cost.sample_step_cpu)
     per_plan *= cost.weighted(cost.overhead)
-    return plant + duration / float(planner.replan_period) * per_plan
+    latency = float(planner.get("latency") or 0.0)
+    if planner.get("latency_model"):
+        model = instantiate(planner.latency_model)
+        latency = model.seconds(int(planner.num_samples) * models, steps, plant_dt)
+    return plant + duration / max(float(planner.replan_period), latency) * per_plan
 
 
 def makespan(seconds: list[float], slots: int) -> float:
