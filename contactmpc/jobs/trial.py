@@ -109,7 +109,7 @@ def run_trial(
             progress,
             perturbation,
         )
-        loop0 = time.perf_counter()
+        loop0, cpu0 = time.perf_counter(), time.process_time()
         try:
             log = trial.run()
         finally:
@@ -119,6 +119,7 @@ def run_trial(
         series = log.arrays()
         wall = time.perf_counter() - loop0  # the closed loop alone, for the real-time factor
         record.update(summarize(series, trial, wall, failure_gap, failure_min_expected, milestone_hold))
+        record["cpu_seconds"] = time.process_time() - cpu0  # the process's, all rollout threads
         record["setup_seconds"] = loop0 - wall0
         record["status"] = "ok"
         write_series(out / SERIES_NAME, series)
