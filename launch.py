@@ -9,21 +9,16 @@
 Errors that come from bad input (config, reference files, scenes) are printed as one line naming the
 problem, and the process exits with status 1. Ctrl-C leaves the trial's record (status
 ``interrupted``), prints one line and exits with status 130. A multirun ends with one summary line
-(:class:`SweepSummary`) and a non-zero exit status unless every job finished.
+(:class:`sweep_summary.SweepSummary`, a Hydra callback beside this file) and a non-zero exit status
+unless every job finished.
 """
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import json
 import logging
 import os
-import shutil
-import signal
 import sys
-import tempfile
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -32,29 +27,19 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import hydra  # noqa: E402
 from hydra.core.config_store import ConfigStore  # noqa: E402
 from hydra.core.hydra_config import HydraConfig  # noqa: E402
-from hydra.core.utils import JobStatus  # noqa: E402
-from hydra.experimental.callback import Callback  # noqa: E402
 from hydra.types import RunMode  # noqa: E402
 from hydra.utils import get_method, instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
 from contactmpc.config import Config, check_config, member_schemas  # noqa: E402
 from contactmpc.jobs.trial import failure_status  # noqa: E402
-from contactmpc.records import RECORD_NAME, one_line, write_json  # noqa: E402
-from contactmpc.runs import (  # noqa: E402
-    RESUME,
-    job_lock,
-    resume_decision,
-    safe_dirname,
-)
+from contactmpc.records import RECORD_NAME, one_line  # noqa: E402
+from contactmpc.runs import RESUME, job_lock, resume_decision  # noqa: E402
+from sweep_summary import SWEEP_STATE_ENV  # noqa: E402  (also registers the safe_dirname resolver)
 
 CONF_DIR = Path(__file__).resolve().parent / "conf"
 
 LABELS = ("task", "hand", "cost", "sampler", "planner", "variant", "preset", "experiment", "perturbation")
-STATE_DIR = ".contactmpc"
-"""In a sweep's directory: one folder per running multirun with the outcomes of its jobs."""
-SWEEP_STATE_ENV = "CONTACTMPC_SWEEP_STATE"
-"""Set in a multirun job's process to its sweep's state folder (see :class:`SweepSummary`)."""
 
 log = logging.getLogger("contactmpc")
 
@@ -93,11 +78,6 @@ def register_configs() -> None:
 
 
 register_configs()
-
-
-# Registered on import: a multirun job that runs in another process (joblib, submitit) imports this
-# module when it unpickles the SweepSummary callback, before its directory is resolved.
-OmegaConf.register_new_resolver("safe_dirname", safe_dirname, replace=True)
 
 
 def build_scene(cfg: DictConfig):
@@ -203,102 +183,6 @@ def main(cfg: DictConfig) -> dict:
     if hc.mode != RunMode.MULTIRUN and outcome["status"] not in ("ok", "skipped"):
         sys.exit(130 if outcome["status"] == "interrupted" else 1)
     return outcome  # a multirun goes on with its other jobs; SweepSummary counts the outcomes
-
-
-# ------------------------------------------------------------------------------------------- sweeps
-
-
-class SweepSummary(Callback):
-    """Counts a multirun's job outcomes, prints one summary line and sets the exit status.
-
-    Registered in ``conf/config.yaml`` (``hydra.callbacks``). Jobs may run in other processes (joblib,
-    submitit), so each job's outcome is a file in ``<sweep dir>/.contactmpc/<this multirun>/``, written
-    where the job ran (``on_job_start``: ``unfinished``; ``on_job_end``: what :func:`main` returned) and
-    read here at the end. The exit status is 130 after Ctrl-C, else 1 if any job failed, was refused,
-    ran elsewhere or left no outcome, else 0.
-
-    Ctrl-C during a multirun whose jobs run in other processes stops it gently: the jobs running (which
-    get the same Ctrl-C from the terminal) write their records with status ``interrupted``, no new job
-    starts, and the summary follows; a second Ctrl-C aborts at once.
-    """
-
-    COUNTED = ("ok", "diverged", "error", "interrupted")
-    OTHERS = {
-        "refused": "refused (a different trial's record)",
-        "busy": "running in another process",
-        "not_started": "not started (interrupted)",
-        "unfinished": "left no outcome",
-    }
-
-    def __init__(self) -> None:
-        self.state: Path | None = None
-        self.sweep_dir: Path | None = None
-        self.in_job = False  # a job runs in this process (the basic launcher)
-        self.stopping = False
-        self._sigint: Any = None
-
-    def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
-        self.sweep_dir = Path(str(config.hydra.sweep.dir)).absolute()
-        (self.sweep_dir / STATE_DIR).mkdir(parents=True, exist_ok=True)
-        self.state = Path(tempfile.mkdtemp(prefix="multirun-", dir=self.sweep_dir / STATE_DIR))
-        with contextlib.suppress(ValueError):  # not the main thread: keep Python's handler
-            self._sigint = signal.signal(signal.SIGINT, self._on_sigint)
-
-    def _on_sigint(self, signum: int, frame: Any) -> None:
-        if self.in_job or self.stopping:
-            raise KeyboardInterrupt
-        self.stopping = True
-        if self.state is not None:
-            (self.state / "STOP").touch()
-        print(
-            "[contactmpc] stopping the sweep: running jobs end as interrupted, no new job starts "
-            "(Ctrl-C again to abort)",
-            file=sys.stderr,
-        )
-
-    def on_job_start(self, config: DictConfig, **kwargs: Any) -> None:
-        if self.state is None:
-            return
-        self.in_job = True
-        os.environ[SWEEP_STATE_ENV] = str(self.state)
-        write_json(self._outcome_path(config), {"status": "unfinished"})
-
-    def on_job_end(self, config: DictConfig, job_return: Any, **kwargs: Any) -> None:
-        if self.state is None:
-            return
-        self.in_job = False
-        value = job_return._return_value
-        if job_return.status == JobStatus.COMPLETED and isinstance(value, dict):
-            outcome = value
-        else:
-            error = one_line(value) if isinstance(value, BaseException) else None
-            outcome = {"status": "error", "error": error}
-        outcome["dir"] = str(config.hydra.runtime.output_dir)
-        write_json(self._outcome_path(config), outcome)
-
-    def _outcome_path(self, config: DictConfig) -> Path:
-        return self.state / f"job{config.hydra.job.num}.json"
-
-    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
-        if self._sigint is not None:
-            signal.signal(signal.SIGINT, self._sigint)
-        if self.state is None:
-            return
-        os.environ.pop(SWEEP_STATE_ENV, None)
-        outcomes = [json.loads(p.read_text()) for p in sorted(self.state.glob("job*.json"))]
-        shutil.rmtree(self.state, ignore_errors=True)
-        with contextlib.suppress(OSError):
-            self.state.parent.rmdir()  # the last multirun on this sweep removes .contactmpc/
-        counts = Counter(o.get("status") for o in outcomes)
-        line = " / ".join(f"{counts[s]} {s}" for s in self.COUNTED)
-        line += f", {counts['skipped']} skipped"
-        line += "".join(f", {counts[s]} {what}" for s, what in self.OTHERS.items() if counts[s])
-        print(f"[contactmpc] sweep {self.sweep_dir}: {len(outcomes)} jobs: {line}")
-        # Hydra passes no job results to the caller of main(): the exit status is set from here.
-        if self.stopping or counts["interrupted"] or counts["not_started"]:
-            raise SystemExit(130)
-        if any(status not in ("ok", "diverged", "skipped") for status in counts):
-            raise SystemExit(1)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,7 @@ import ast
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-SOURCES = ("contactmpc", "analysis", "launch.py")
+SOURCES = ("contactmpc", "analysis", "launch.py", "sweep_summary.py")
 
 
 def repo_modules() -> dict[str, Path]:
@@ -131,6 +131,7 @@ def test_graph_sees_the_imports():
     """Sanity: the walk finds known edges of this repository."""
     graph = import_graph()
     assert "contactmpc.config" in graph["launch"]
+    assert "sweep_summary" in graph["launch"] and "contactmpc.runs" in graph["sweep_summary"]
     assert "contactmpc.tasks.apple" in graph["contactmpc.tasks"]  # a package's __init__ counts
     assert "analysis.report" in graph["analysis.__main__"]  # imported inside main()
 

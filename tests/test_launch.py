@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-import launch
+import sweep_summary
 from contactmpc import runs
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners import PredictiveSampling
@@ -287,7 +287,7 @@ def test_sweep_summary_flat_directories_and_exit_status(tmp_path, refs):
     assert sorted(rec["status"] for rec in found.values()) == ["error", "ok"]
     assert all("/" not in name for name in found)  # one level: the job directories themselves
     assert any(name.startswith("duration=0.1,") and "task.reference_path=bad.npz" in name for name in found)
-    assert not (sweep / launch.STATE_DIR).exists()
+    assert not (sweep / sweep_summary.STATE_DIR).exists()
 
     again = launch_py(*args, *TINY, *QUIET)
     assert again.returncode == 1  # the bad file is still bad

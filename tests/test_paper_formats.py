@@ -1,4 +1,5 @@
-"""Readers of the paper authors' file formats (``contactmpc.reference.paper.formats``).
+"""Readers of the paper authors' file formats and their evaluation (``contactmpc.reference.paper``:
+``splines``, ``contacts``, ``evaluation``).
 
 Small files in the authors' formats are written into ``tmp_path`` by the helpers below (no authors'
 data is stored in the repository). The real files are read only when ``CONTACTMPC_PAPER_DATA`` names
@@ -21,7 +22,20 @@ from scipy.interpolate import BSpline
 
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.data import ReferenceError
-from contactmpc.reference.paper import formats as pf
+from contactmpc.reference.paper.contacts import read_contacts
+from contactmpc.reference.paper.evaluation import (
+    aliased_transpose,
+    code_component_matrix,
+    contact_frame_index,
+    evaluate,
+    reconstruct,
+    reconstruct_as_code,
+    spline_parameter,
+    time_column,
+    to_mujoco_units,
+    value_column,
+)
+from contactmpc.reference.paper.splines import MOCAP_FPS, read_pcmexp, read_smexp
 
 # ------------------------------------------------------------------------------------ file builders
 
@@ -61,7 +75,7 @@ def smexp_doc(
 ) -> dict[str, Any]:
     """A ``.smexp`` document for curves with control-point values ``(n, M)``."""
     n, m = values.shape
-    frames = round(duration * pf.MOCAP_FPS) if num_frames is None else num_frames
+    frames = round(duration * MOCAP_FPS) if num_frames is None else num_frames
     times = np.tile(greville_times(m, frames), (n, 1))
     return {
         "numDofs": n,
@@ -75,7 +89,7 @@ def smexp_doc(
 def pcmexp_doc(center: np.ndarray, components: np.ndarray, values: np.ndarray, duration: float) -> dict:
     """A ``.pcmexp`` document: PCA centre ``(D,)``, components ``(k, D)``, PC-curve values ``(k, M)``."""
     k, m = values.shape
-    times = np.tile(greville_times(m, round(duration * pf.MOCAP_FPS)), (k, 1))
+    times = np.tile(greville_times(m, round(duration * MOCAP_FPS)), (k, 1))
     entries = curve_entries(times, values, ["rotation"] * k, ["radians"] * k)
     for entry, row in zip(entries, components, strict=True):
         entry["componentData"] = row.tolist()
@@ -174,7 +188,7 @@ def test_curve_round_trip_and_cpp_evaluation(tmp_path: Path) -> None:
     duration, slowdown = 2.5, 6.0
     kinds, units = ["translation", "rotationBallX", "rotation"], ["centimeters", "degrees", "radians"]
     path = write_json(tmp_path / "x_hand.smexp", smexp_doc(values, duration, kinds, units))
-    curves = pf.read_smexp(path, expected_dofs=3)
+    curves = read_smexp(path, expected_dofs=3)
     assert (curves.num_curves, curves.num_control_points, curves.degree) == (3, 9, 3)
     assert curves.kind == tuple(kinds) and curves.units == tuple(units) and curves.duration == duration
     np.testing.assert_array_equal(curves.values, values)
@@ -185,7 +199,7 @@ def test_curve_round_trip_and_cpp_evaluation(tmp_path: Path) -> None:
     u = np.fmod(t, loop) / loop
     knots = np.concatenate([np.zeros(4), np.arange(1, 6) / 6, np.ones(4)])  # 9 control points
     expected = BSpline(knots, values.T, 3)(u)
-    got = pf.evaluate(curves, t, slowdown)
+    got = evaluate(curves, t, slowdown)
     assert got.shape == (t.size, 3)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
     for n, un in enumerate(u):
@@ -194,38 +208,38 @@ def test_curve_round_trip_and_cpp_evaluation(tmp_path: Path) -> None:
     # the knots themselves, and values clamped outside [0, 1] as GetIndex does
     for un in (0.0, 1.0, 1 / 6, 0.5, -0.2, 1.3):
         for c in range(3):
-            assert abs(pf.value_column(curves, un)[0, c] - cpp_value(cpp_knots(9), 3, values[c], un)) < 1e-12
+            assert abs(value_column(curves, un)[0, c] - cpp_value(cpp_knots(9), 3, values[c], un)) < 1e-12
 
 
 def test_fmod_wraps_at_the_loop_length(tmp_path: Path) -> None:
     values = np.arange(14.0).reshape(2, 7) ** 2
-    curves = pf.read_smexp(write_json(tmp_path / "c.smexp", smexp_doc(values, 1.5)))
+    curves = read_smexp(write_json(tmp_path / "c.smexp", smexp_doc(values, 1.5)))
     loop = 1.5 * 4.0
-    at = pf.evaluate(curves, np.array([0.0, loop, 2 * loop, loop - 1e-12, loop + 0.9, 0.9]), 4.0)
+    at = evaluate(curves, np.array([0.0, loop, 2 * loop, loop - 1e-12, loop + 0.9, 0.9]), 4.0)
     np.testing.assert_array_equal(at[0], values[:, 0])  # t = 0: the first control point
     np.testing.assert_array_equal(at[1], values[:, 0])  # t = L wraps to u = 0
     np.testing.assert_array_equal(at[2], values[:, 0])
     np.testing.assert_allclose(at[3], values[:, -1], atol=1e-9)  # just before L: the last point
     np.testing.assert_allclose(at[4], at[5], atol=1e-12)
-    np.testing.assert_allclose(pf.spline_parameter([loop, loop + 1.5], 1.5, 4.0), [0.0, 0.25], atol=1e-15)
+    np.testing.assert_allclose(spline_parameter([loop, loop + 1.5], 1.5, 4.0), [0.0, 0.25], atol=1e-15)
     # the loop length can come from another file (the C++ takes the hand file's time for all curves)
-    np.testing.assert_array_equal(pf.evaluate(curves, [3.0], 4.0, duration=0.75), curves.values[:, :1].T)
+    np.testing.assert_array_equal(evaluate(curves, [3.0], 4.0, duration=0.75), curves.values[:, :1].T)
 
 
 def test_time_column_maps_u_to_mocap_frames(tmp_path: Path) -> None:
-    duration = 50 / pf.MOCAP_FPS  # 50 frames
-    curves = pf.read_smexp(write_json(tmp_path / "c.smexp", smexp_doc(np.zeros((2, 8)), duration)))
+    duration = 50 / MOCAP_FPS  # 50 frames
+    curves = read_smexp(write_json(tmp_path / "c.smexp", smexp_doc(np.zeros((2, 8)), duration)))
     u = np.linspace(0, 1, 33)
-    np.testing.assert_allclose(pf.time_column(curves, u), np.outer(u * 49, [1, 1]), atol=1e-10)
-    assert pf.contact_frame_index([0.0, 1.0 / 30, 50 / 30 - 1e-9, 50 / 30], 4.0, 50).tolist() == [0, 1, 49, 0]
+    np.testing.assert_allclose(time_column(curves, u), np.outer(u * 49, [1, 1]), atol=1e-10)
+    assert contact_frame_index([0.0, 1.0 / 30, 50 / 30 - 1e-9, 50 / 30], 4.0, 50).tolist() == [0, 1, 49, 0]
 
 
 def test_to_mujoco_units_wraps_like_the_cpp(tmp_path: Path) -> None:
     kinds = ["translation", "translation", "rotationBallZ", "rotation"]
     units = ["centimeters", "millimeters", "degrees", "radians"]
-    curves = pf.read_smexp(write_json(tmp_path / "c.smexp", smexp_doc(np.zeros((4, 4)), 1.0, kinds, units)))
+    curves = read_smexp(write_json(tmp_path / "c.smexp", smexp_doc(np.zeros((4, 4)), 1.0, kinds, units)))
     values = np.array([[150.0, 150.0, 431.0, 7.0], [-2.0, -2.0, -721.0, -2 * math.pi], [0, 0, 360.0, -13.0]])
-    out = pf.to_mujoco_units(curves, values)
+    out = to_mujoco_units(curves, values)
     two_pi = 2 * math.pi
     expected = [
         [1.5, 0.15, 71.0 * math.pi / 180, 7.0 - two_pi],
@@ -241,14 +255,14 @@ def test_to_mujoco_units_wraps_like_the_cpp(tmp_path: Path) -> None:
 
 def test_aliased_transpose_hand_worked() -> None:
     # 3 x 3: row 0 is written into column 0 first, so rows 1, 2 read the already mirrored entries.
-    result = pf.aliased_transpose(np.arange(9.0), 3, 3).reshape(3, 3)
+    result = aliased_transpose(np.arange(9.0), 3, 3).reshape(3, 3)
     np.testing.assert_array_equal(result, [[0, 1, 2], [1, 4, 5], [2, 5, 8]])
     # 2 x 3 (non-square): [0,1,2,3,4,5] -> [0,1,1,3,4,5] -> [0,1,1,3,1,5] -> [0,3,1,3,1,5] -> [0,3,1,1,1,5]
-    np.testing.assert_array_equal(pf.aliased_transpose(np.arange(6.0), 2, 3), [0, 3, 1, 1, 1, 5])
+    np.testing.assert_array_equal(aliased_transpose(np.arange(6.0), 2, 3), [0, 3, 1, 1, 1, 5])
     # MuJoCo itself, on an aliased buffer
     for nr, nc in ((3, 3), (2, 3), (16, 16), (5, 16)):
         buf = np.random.default_rng(nr * nc).normal(size=nr * nc)
-        expected = pf.aliased_transpose(buf, nr, nc)
+        expected = aliased_transpose(buf, nr, nc)
         mujoco.mju_transpose(buf.reshape(nc, nr), buf.reshape(nr, nc))
         np.testing.assert_array_equal(buf, expected)
 
@@ -259,16 +273,16 @@ def test_pc_reconstruction(tmp_path: Path) -> None:
     center = rng.normal(size=5)
     pcs_values = rng.normal(size=(5, 6))
     path = write_json(tmp_path / "x.pcmexp", pcmexp_doc(center, components, pcs_values, 1.0))
-    pcs = pf.read_pcmexp(path, expected_dofs=5)
+    pcs = read_pcmexp(path, expected_dofs=5)
     assert (pcs.num_components, pcs.num_dofs, pcs.duration) == (5, 5, 1.0)
     np.testing.assert_array_equal(pcs.components, components)
     np.testing.assert_array_equal(pcs.curves.values, pcs_values)
     p = rng.normal(size=(4, 5))
-    np.testing.assert_allclose(pf.reconstruct(pcs, p), center + (components.T @ p.T).T, atol=1e-14)
+    np.testing.assert_allclose(reconstruct(pcs, p), center + (components.T @ p.T).T, atol=1e-14)
     mirrored = np.triu(components) + np.triu(components, 1).T
-    np.testing.assert_allclose(pf.reconstruct_as_code(pcs, p), center + p @ mirrored.T, atol=1e-14)
+    np.testing.assert_allclose(reconstruct_as_code(pcs, p), center + p @ mirrored.T, atol=1e-14)
     # evaluated PC-curves -> joints, as the C++'s GetDesiredAgentStateFromPCs (without the root)
-    joints = pf.reconstruct(pcs, pf.evaluate(pcs.curves, [0.0], 2.0))
+    joints = reconstruct(pcs, evaluate(pcs.curves, [0.0], 2.0))
     np.testing.assert_allclose(joints[0], center + components.T @ pcs_values[:, 0], atol=1e-14)
 
 
@@ -276,11 +290,11 @@ def test_pc_reconstruction_as_code_hand_worked(tmp_path: Path) -> None:
     components = np.arange(9.0).reshape(3, 3)  # C; the code uses [[0,1,2],[1,4,5],[2,5,8]] for C^T
     center = np.array([0.5, -1.0, 2.0])
     path = write_json(tmp_path / "x.pcmexp", pcmexp_doc(center, components, np.zeros((3, 4)), 1.0))
-    pcs = pf.read_pcmexp(path)
-    np.testing.assert_array_equal(pf.code_component_matrix(pcs), [[0, 1, 2], [1, 4, 5], [2, 5, 8]])
+    pcs = read_pcmexp(path)
+    np.testing.assert_array_equal(code_component_matrix(pcs), [[0, 1, 2], [1, 4, 5], [2, 5, 8]])
     p = np.array([1.0, 10.0, 100.0])
-    np.testing.assert_array_equal(pf.reconstruct(pcs, p), center + [630.0, 741.0, 852.0])  # C^T p
-    np.testing.assert_array_equal(pf.reconstruct_as_code(pcs, p), center + [210.0, 541.0, 852.0])
+    np.testing.assert_array_equal(reconstruct(pcs, p), center + [630.0, 741.0, 852.0])  # C^T p
+    np.testing.assert_array_equal(reconstruct_as_code(pcs, p), center + [210.0, 541.0, 852.0])
 
 
 # ------------------------------------------------------------------------------------ contacts
@@ -301,7 +315,7 @@ FRAMES: list[list[Contact]] = [
 def test_contacts_grouped_per_frame(tmp_path: Path) -> None:
     elements = contact_elements(FRAMES)
     np.random.default_rng(0).shuffle(elements)  # read by name, not by position
-    contacts = pf.read_contacts(write_contacts(tmp_path / "c.xml", elements))
+    contacts = read_contacts(write_contacts(tmp_path / "c.xml", elements))
     assert contacts.num_frames == 5 and contacts.num_contacts == 5
     assert contacts.frame_offsets.tolist() == [0, 0, 2, 2, 5]
     assert contacts.frame_counts.tolist() == [0, 2, 0, 3, 0]
@@ -362,7 +376,7 @@ def test_bad_contacts(tmp_path: Path, case: str) -> None:
     edit, field = BAD_CONTACTS[case]
     path = write_contacts(tmp_path / f"{case}.xml", edit(contact_elements(FRAMES)))
     with pytest.raises(ReferenceError) as err:
-        pf.read_contacts(path)
+        read_contacts(path)
     assert_one_line(err, path, field)
 
 
@@ -371,7 +385,7 @@ def test_bad_contact_files(tmp_path: Path) -> None:
     truncated.write_text('<mujoco><custom><numeric name="contact_numdata_0" data="0 0" />')
     for path in (tmp_path / "missing.xml", tmp_path, truncated):
         with pytest.raises(ReferenceError) as err:
-            pf.read_contacts(path)
+            read_contacts(path)
         assert_one_line(err, path, None)
 
 
@@ -441,7 +455,7 @@ def test_bad_smexp(tmp_path: Path, case: str) -> None:
     edit, field = BAD_SMEXP[case]
     path = write_json(tmp_path / f"{case}.smexp", edit(_smexp()))
     with pytest.raises(ReferenceError) as err:
-        pf.read_smexp(path, expected_dofs=3)
+        read_smexp(path, expected_dofs=3)
     assert_one_line(err, path, field)
 
 
@@ -480,11 +494,11 @@ def test_bad_pcmexp(tmp_path: Path, case: str) -> None:
     edit, field = BAD_PCMEXP[case]
     path = write_json(tmp_path / f"{case}.pcmexp", edit(_pcmexp()))
     with pytest.raises(ReferenceError) as err:
-        pf.read_pcmexp(path, expected_dofs=4)
+        read_pcmexp(path, expected_dofs=4)
     assert_one_line(err, path, field)
 
 
-@pytest.mark.parametrize("reader", [pf.read_smexp, pf.read_pcmexp])
+@pytest.mark.parametrize("reader", [read_smexp, read_pcmexp])
 def test_bad_json_files(tmp_path: Path, reader: Callable[[Path], Any]) -> None:
     truncated = tmp_path / "truncated.json"
     truncated.write_text(json.dumps(_smexp())[:200])
@@ -518,10 +532,10 @@ PAPER_TASKS = {  # allegro.h: slowdown, totalFrames, first contact frame (the co
 def test_real_data(task: str) -> None:
     root = Path(PAPER_DATA)
     slowdown, total_frames, first_contact = PAPER_TASKS[task]
-    hand = pf.read_smexp(root / "allegro" / "splinetrajectories" / f"{task}_hand.smexp", expected_dofs=22)
-    obj = pf.read_smexp(root / "shared_spline_trajectories" / f"{task}_object.smexp", expected_dofs=6)
-    pcs = pf.read_pcmexp(root / "allegro" / "pcsplines" / f"{task}.pcmexp", expected_dofs=16)
-    contacts = pf.read_contacts(root / "allegro" / "contacts" / "data" / f"{task}.xml")
+    hand = read_smexp(root / "allegro" / "splinetrajectories" / f"{task}_hand.smexp", expected_dofs=22)
+    obj = read_smexp(root / "shared_spline_trajectories" / f"{task}_object.smexp", expected_dofs=6)
+    pcs = read_pcmexp(root / "allegro" / "pcsplines" / f"{task}.pcmexp", expected_dofs=16)
+    contacts = read_contacts(root / "allegro" / "contacts" / "data" / f"{task}.xml")
 
     assert hand.num_curves == 22 and obj.num_curves == 6 and pcs.num_components == 16
     assert hand.kind[:6] == ("translation",) * 3 + ("rotationBallX", "rotationBallY", "rotationBallZ")
@@ -532,7 +546,7 @@ def test_real_data(task: str) -> None:
     assert orth < 1e-6
 
     num_frames = contacts.num_frames
-    assert num_frames == total_frames == round(hand.duration * pf.MOCAP_FPS)
+    assert num_frames == total_frames == round(hand.duration * MOCAP_FPS)
     with_contacts = contacts.frames_with_contacts
     assert with_contacts[0] == first_contact
     counts = contacts.frame_counts[with_contacts]
@@ -543,23 +557,23 @@ def test_real_data(task: str) -> None:
     # their time columns bend by a few frames. The C++ ignores the time column, so it changes nothing there.
     u = np.linspace(0.0, 1.0, 2001)
     line = np.outer(u * (num_frames - 1), np.ones(22))
-    frames = pf.time_column(hand, u)
+    frames = time_column(hand, u)
     bend = np.abs(frames - line).max(axis=0)
     assert np.allclose(frames[[0, -1]], [[0.0] * 22, [num_frames - 1.0] * 22], rtol=0, atol=1e-9)
     assert np.all(np.diff(hand.times, axis=1) > 0)
     for curves in (obj, pcs.curves):
-        assert np.abs(pf.time_column(curves, u) - line[:, : curves.num_curves]).max() < 1e-6
+        assert np.abs(time_column(curves, u) - line[:, : curves.num_curves]).max() < 1e-6
     bent = {int(i): round(float(bend[i]), 2) for i in np.flatnonzero(bend > 1e-6)}
 
-    fingers = pf.to_mujoco_units(hand, pf.value_column(hand, u))[:, 6:]
-    p = pf.value_column(pcs.curves, u)
-    paper_err = float(np.abs(pf.reconstruct(pcs, p) - fingers).max())
-    code_err = float(np.abs(pf.reconstruct_as_code(pcs, p) - fingers).max())
-    paper_rms = float(np.sqrt(np.mean((pf.reconstruct(pcs, p) - fingers) ** 2)))
-    code_rms = float(np.sqrt(np.mean((pf.reconstruct_as_code(pcs, p) - fingers) ** 2)))
+    fingers = to_mujoco_units(hand, value_column(hand, u))[:, 6:]
+    p = value_column(pcs.curves, u)
+    paper_err = float(np.abs(reconstruct(pcs, p) - fingers).max())
+    code_err = float(np.abs(reconstruct_as_code(pcs, p) - fingers).max())
+    paper_rms = float(np.sqrt(np.mean((reconstruct(pcs, p) - fingers) ** 2)))
+    code_rms = float(np.sqrt(np.mean((reconstruct_as_code(pcs, p) - fingers) ** 2)))
 
     print(
-        f"\n{task}: duration {hand.duration:.4f} s = {hand.duration * pf.MOCAP_FPS:.1f} frames, "
+        f"\n{task}: duration {hand.duration:.4f} s = {hand.duration * MOCAP_FPS:.1f} frames, "
         f"slowdown {slowdown:g} (loop {hand.duration * slowdown:.2f} s); control points hand "
         f"{hand.num_control_points}, object {obj.num_control_points}, PC {pcs.curves.num_control_points}\n"
         f"  contacts: {num_frames} frames, {with_contacts.size} with contacts "

@@ -20,7 +20,8 @@ from scipy.spatial.transform import Rotation
 from contactmpc.hands import AllegroPaperHand
 from contactmpc.reference.consistency import consistency_report
 from contactmpc.reference.data import ReferenceError
-from contactmpc.reference.paper import formats as pf
+from contactmpc.reference.paper.contacts import read_contacts
+from contactmpc.reference.paper.evaluation import evaluate, to_mujoco_units
 from contactmpc.reference.paper.importer import (
     PaperFiles,
     TheirHand,
@@ -29,6 +30,7 @@ from contactmpc.reference.paper.importer import (
     their_rotation,
     wrist_angles,
 )
+from contactmpc.reference.paper.splines import MOCAP_FPS, read_smexp
 from tests.test_paper_formats import contact_elements, pcmexp_doc, smexp_doc, write_contacts, write_json
 
 DEMO = "thing_move_1"
@@ -66,7 +68,7 @@ def _write_data(
     root: Path, hand_values: np.ndarray, object_values: np.ndarray, frames: list, duration=None
 ) -> Path:
     """A data directory in the authors' layout; curve values are constant-free (n, M) control points."""
-    duration = NUM_FRAMES / pf.MOCAP_FPS if duration is None else duration
+    duration = NUM_FRAMES / MOCAP_FPS if duration is None else duration
     (root / "allegro" / "splinetrajectories").mkdir(parents=True)
     (root / "allegro" / "pcsplines").mkdir(parents=True)
     (root / "allegro" / "contacts" / "data").mkdir(parents=True)
@@ -197,8 +199,8 @@ def test_import_reproduces_the_palm_pose(data) -> None:
     ref = _import(root)
     ref.validate(HAND.joint_names, HAND.link_names, joint_ranges=None)
     files = PaperFiles.locate(root, DEMO)
-    curves = pf.read_smexp(files.hand)
-    values = pf.to_mujoco_units(curves, pf.evaluate(curves, ref.time, 1.0))
+    curves = read_smexp(files.hand)
+    values = to_mujoco_units(curves, evaluate(curves, ref.time, 1.0))
     rot = their_rotation(values[:, 3:6])
     spec = mujoco.MjSpec()
     spec.compiler.degree = False
@@ -221,14 +223,12 @@ def test_fingers_object_and_time(data) -> None:
     ref = _import(root)
     files = PaperFiles.locate(root, DEMO)
     assert ref.num_frames == NUM_FRAMES
-    np.testing.assert_allclose(np.diff(ref.time), 1 / pf.MOCAP_FPS)
-    values = pf.to_mujoco_units(
-        pf.read_smexp(files.hand), pf.evaluate(pf.read_smexp(files.hand), ref.time, 1.0)
-    )
+    np.testing.assert_allclose(np.diff(ref.time), 1 / MOCAP_FPS)
+    values = to_mujoco_units(read_smexp(files.hand), evaluate(read_smexp(files.hand), ref.time, 1.0))
     for our_col, joint in enumerate(HAND.joint_names[6:], start=6):  # by name: their curve 6 + index
         np.testing.assert_allclose(ref.hand_qpos[:, our_col], values[:, 6 + THEIR_FINGERS.index(joint)])
-    ocurves = pf.read_smexp(files.object)
-    ovalues = pf.to_mujoco_units(ocurves, pf.evaluate(ocurves, ref.time, 1.0, duration=ocurves.duration))
+    ocurves = read_smexp(files.object)
+    ovalues = to_mujoco_units(ocurves, evaluate(ocurves, ref.time, 1.0, duration=ocurves.duration))
     np.testing.assert_allclose(ref.object_qpos[:, :3], ovalues[:, :3], atol=1e-12)
     quat = their_rotation(ovalues[:, 3:]).as_quat(scalar_first=True)
     np.testing.assert_allclose(np.abs(np.sum(ref.object_qpos[:, 3:] * quat, axis=1)), 1.0, atol=1e-12)
@@ -320,7 +320,7 @@ def test_bad_files_each_give_one_line(tmp_path: Path) -> None:
 
 def test_contact_frames_that_disagree_with_the_curves(tmp_path: Path) -> None:
     hand, obj = _curves(np.random.default_rng(1))
-    root = _write_data(tmp_path / "d", hand, obj, _frames(), duration=(NUM_FRAMES + 5) / pf.MOCAP_FPS)
+    root = _write_data(tmp_path / "d", hand, obj, _frames(), duration=(NUM_FRAMES + 5) / MOCAP_FPS)
     with pytest.raises(ReferenceError) as err:
         _import(root)
     _one_line(err, f"{DEMO}.xml", f"{NUM_FRAMES} contact frames", f"{NUM_FRAMES + 5} frames")
@@ -399,7 +399,7 @@ def test_real_import_validates_and_is_consistent(task: str, scene_for) -> None:
     assert report["touch_share_over_six"] > 0.9
     # the contact span and the object at frame 0 where the scene put it
     files = scene.task.files
-    contacts = pf.read_contacts(files.contacts)
+    contacts = read_contacts(files.contacts)
     np.testing.assert_array_equal(ref.contact_active.any(axis=1), contacts.frame_counts > 0)
     if scene.task.layout.quat_index is not None:
         np.testing.assert_allclose(
@@ -421,8 +421,8 @@ def test_real_palm_pose_matches_their_hand(scene_for) -> None:
     model = scene.plant_model
     d = mujoco.MjData(model)
     files = scene.task.files
-    curves = pf.read_smexp(files.hand)
-    values = pf.to_mujoco_units(curves, pf.evaluate(curves, ref.time, 1.0))
+    curves = read_smexp(files.hand)
+    values = to_mujoco_units(curves, evaluate(curves, ref.time, 1.0))
     quat = their_rotation(values[:, 3:6]).as_quat(scalar_first=True)
     their_fingers = [theirs.joint(j).qposadr[0] for j in THEIR_FINGERS]
     ours = [model.joint(j).qposadr[0] for j in HAND.joint_names]
@@ -459,13 +459,13 @@ def test_real_write_reference_matches_their_curves_and_contacts(tmp_path: Path, 
     assert run.returncode == 0, run.stderr
     ref = Reference.load(out)
     files = PaperFiles.locate(PAPER_DATA, "waterbottle_pour_1")
-    hand = pf.read_smexp(files.hand)
-    obj = pf.read_smexp(files.object)
+    hand = read_smexp(files.hand)
+    obj = read_smexp(files.object)
     # their C++ at simulation time t = k * slowdown / 120
-    t = np.arange(ref.num_frames) * 5.0 / pf.MOCAP_FPS
-    values = pf.to_mujoco_units(obj, pf.evaluate(obj, t, 5.0, duration=hand.duration))
+    t = np.arange(ref.num_frames) * 5.0 / MOCAP_FPS
+    values = to_mujoco_units(obj, evaluate(obj, t, 5.0, duration=hand.duration))
     assert np.linalg.norm(ref.object_qpos[:, :3] - values[:, :3], axis=1).max() < 1e-3
-    contacts = pf.read_contacts(files.contacts)
+    contacts = read_contacts(files.contacts)
     names = their_body_names(TheirHand.read(files.hand_xml), "waterbottle")
     for f in range(contacts.num_frames):
         bodies = {names[b].removeprefix("allegro_") for b in contacts.frame(f).body_index}
@@ -532,7 +532,7 @@ def test_reference_as_code_reconstructs_with_the_mirrored_upper_triangle(tmp_pat
     root = _write_data(tmp_path / "d", hand, obj, _frames())
     comps, _ = np.linalg.qr(rng.normal(size=(16, 16)))
     center = rng.normal(size=16) * 0.1
-    duration = NUM_FRAMES / pf.MOCAP_FPS
+    duration = NUM_FRAMES / MOCAP_FPS
     write_json(
         root / "allegro" / "pcsplines" / f"{DEMO}.pcmexp",
         pcmexp_doc(center, comps, np.zeros((16, hand.shape[1])), duration),

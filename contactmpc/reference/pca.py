@@ -45,7 +45,7 @@ class PCABasis:
         decoder: ``(k, D)``, the matrix :meth:`from_pc` maps PC coordinates with in place of the
             components (``to_pc`` keeps the components). Default: the components. The paper authors' code
             reconstructs with the mirrored upper triangle of its component matrix, not its transpose
-            (:func:`contactmpc.reference.paper.formats.code_component_matrix`); this reproduces that.
+            (:func:`contactmpc.reference.paper.evaluation.code_component_matrix`); this reproduces that.
     """
 
     def __init__(

@@ -17,7 +17,7 @@ How each is turned into ours (:func:`import_reference`):
 - **Time.** Frame ``k = 0 .. F-1`` of the reference is the mocap frame ``k`` at ``k / 120`` s of the
   demonstration (``F`` = the contact file's frame count, which must equal ``120 * time``). Its curves
   are evaluated as the C++ does at simulation time ``k * slowdown / 120``: the value column at
-  ``u = k / (120 * time)`` (:func:`~contactmpc.reference.paper.formats.evaluate`, ``time`` from the hand
+  ``u = k / (120 * time)`` (:func:`~contactmpc.reference.paper.evaluation.evaluate`, ``time`` from the hand
   file for every curve set), then wrapped and converted to metres and radians. The slowdown itself
   becomes the task's ``time_scale``.
 - **Wrist.** Our wrist is three slides and three hinges on ``hand_root`` with ``R = Rx(rx) Ry(ry)
@@ -60,18 +60,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from contactmpc.reference.data import Reference, ReferenceError
-from contactmpc.reference.paper.formats import (
-    MOCAP_FPS,
-    ContactFrames,
-    PCSplines,
-    SplineCurves,
-    code_component_matrix,
-    evaluate,
-    read_contacts,
-    read_pcmexp,
-    read_smexp,
-    to_mujoco_units,
-)
+from contactmpc.reference.paper.contacts import ContactFrames, read_contacts
+from contactmpc.reference.paper.evaluation import code_component_matrix, evaluate, to_mujoco_units
+from contactmpc.reference.paper.splines import MOCAP_FPS, PCSplines, SplineCurves, read_pcmexp, read_smexp
 
 __all__ = [
     "BODIES_BEFORE_HAND",
