@@ -76,3 +76,20 @@ def test_cli(benchmarks: Path, capsys) -> None:
     out = capsys.readouterr().out
     assert "4 jobs" in out and "64 cores" in out
     assert main(["experiment=ablation_lite", "--benchmarks", str(benchmarks / "apple")]) == 2
+
+
+def test_a_latency_longer_than_the_period_prices_fewer_plans(benchmarks: Path) -> None:
+    """preset=paper plans once per modelled compute time (96 ms), not every 10 ms (preset=paper_10ms)."""
+    from analysis.budget import compose
+
+    cost: TaskCost = load_benchmarks(benchmarks)["apple"]
+    paper, sync = (
+        job_seconds(cost, compose(["task=apple", f"preset={p}", "duration=2"]))
+        for p in ("paper", "paper_10ms")
+    )
+    plant = 2 / 0.001 * 45e-6
+    assert (sync - plant) / (paper - plant) == pytest.approx(9.6)
+    fixed = job_seconds(
+        cost, compose(["task=apple", "preset=paper_10ms", "planner.latency=0.05", "duration=2"])
+    )
+    assert (sync - plant) / (fixed - plant) == pytest.approx(5.0)
