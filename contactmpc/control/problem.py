@@ -33,6 +33,8 @@ class Problem:
         cost: the running cost, bound to scene and track.
         theta0: (M, d) the reference's own control points in the space's coordinates.
         duration: control time a trial simulates (s).
+        noise_std: (d,) the sampling noise per column of ``theta``, or (M, d) per control point (a
+            space with a ``root_window``); ``None``: the space's ``noise_std``.
     """
 
     scene: Scene
@@ -42,6 +44,7 @@ class Problem:
     cost: TrackingCost
     theta0: np.ndarray
     duration: float
+    noise_std: np.ndarray | None = None
 
     @classmethod
     def build(
@@ -79,6 +82,8 @@ class Problem:
             spline, track.hand_times, reference.hand_qpos, ranges, scene.hand.num_root, meta=reference.meta
         )
         cost.bind(scene, track, reference)
+        expected = np.flatnonzero(track.contact_active.any(axis=1))
+        first_contact = float(expected[0] * track.dt) if expected.size else None
         return cls(
             scene=scene,
             track=track,
@@ -87,4 +92,5 @@ class Problem:
             cost=cost,
             theta0=theta0,
             duration=float(track.duration if duration is None else duration),
+            noise_std=space.point_noise_std(spline, first_contact),
         )

@@ -23,7 +23,7 @@ import numpy as np
 
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis, PCACurves
-from contactmpc.validate import Ge, OneOf, checked
+from contactmpc.validate import ConfigError, Ge, OneOf, checked
 
 
 class SplineSpace:
@@ -37,6 +37,10 @@ class SplineSpace:
         num_components: number of PCs kept (PCA space only); ``None`` keeps one per finger joint.
         root_rotation_sigma2: noise variance on the wrist *hinges* (rad^2): the root DOFs after the first
             three (the floating wrist's x, y, z slides); ``None``: ``root_sigma2``, as for the slides.
+        root_window: ``(start, end)`` seconds relative to the first expected contact: sample the wrist
+            only on the control points whose support meets that interval (the paper's future work:
+            the wrist free while contact is being acquired, the reference's afterwards); ``None``: on
+            every control point.
     """
 
     @checked
@@ -47,7 +51,11 @@ class SplineSpace:
         whiten: bool = False,
         num_components: Annotated[int, Ge(1)] | None = None,
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
+        root_window: tuple[float, float] | None = None,
     ) -> None:
+        if root_window is not None and not root_window[0] < root_window[1]:
+            raise ConfigError(f"sampler.root_window must be (start, end) with start < end, got {root_window}")
+        self.root_window = None if root_window is None else (float(root_window[0]), float(root_window[1]))
         self.sigma2 = float(sigma2)
         self.root_sigma2 = float(root_sigma2)
         self.root_rotation_sigma2 = None if root_rotation_sigma2 is None else float(root_rotation_sigma2)
@@ -110,6 +118,21 @@ class SplineSpace:
             std[3 : self.num_root] = np.sqrt(self.root_rotation_sigma2)
         return std
 
+    def point_noise_std(self, spline: UniformBSpline, first_contact: float | None) -> np.ndarray:
+        """The noise per control point: :attr:`noise_std` (d,), or with ``root_window`` an (M, d) array
+        whose root columns are 0 on the control points that do not touch the window around
+        ``first_contact`` (s, control time; ``None``: no contact expected, the wrist is never sampled)."""
+        std = self.noise_std
+        if self.root_window is None:
+            return std
+        out = np.tile(std, (spline.num_control_points, 1))
+        keep = np.zeros(spline.num_control_points, bool)
+        if first_contact is not None:
+            start, end = (first_contact + w for w in self.root_window)
+            keep[spline.window_indices(start, end - start)] = True
+        out[~keep, : self.num_root] = 0.0
+        return out
+
     # --- evaluation ---------------------------------------------------------------------------
     def joint_control_points(self, theta: np.ndarray) -> np.ndarray:
         """Control points in joint space.
@@ -165,7 +188,8 @@ class PCASplineSpace(SplineSpace):
         frozen_components: the first this many PCs get no noise. The authors' code lays its noise out
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
-        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2: see :class:`SplineSpace`.
+        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window: see
+            :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -180,8 +204,9 @@ class PCASplineSpace(SplineSpace):
         basis: Annotated[str, OneOf("fit", "reference", "reference_as_code")] = "fit",
         frozen_components: Annotated[int, Ge(0)] = 0,
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
+        root_window: tuple[float, float] | None = None,
     ) -> None:
-        super().__init__(sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2)
+        super().__init__(sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window)
         self.basis = basis
         self.frozen_components = int(frozen_components)
 

@@ -134,7 +134,7 @@ class Planner:
         self.theta = np.array(problem.theta0, dtype=float)
         self.dt = problem.scene.planner_model.opt.timestep
         self.steps = max(1, int(round(self.horizon / self.dt)))
-        self.noise_std = problem.space.noise_std
+        self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
         self._basis_cache: dict[int, np.ndarray] = {}
         self._actuators = as_index(problem.scene.index.actuators)
         if self.needs_rollouts and self.engine is None:
@@ -165,9 +165,14 @@ class Planner:
             self._basis_cache[i] = self.problem.spline.basis(times)
         return self._basis_cache[i]
 
-    def targets(self, times: np.ndarray) -> np.ndarray:
-        """The committed policy: (N, J) joint targets at control ``times`` (N,)."""
-        return self.problem.space.controls(self.theta, self.problem.spline.basis(times))
+    def targets(self, times: np.ndarray, theta: np.ndarray | None = None) -> np.ndarray:
+        """The committed policy: (N, J) joint targets at control ``times`` (N,).
+
+        ``theta`` (M, d): control points to evaluate instead of the committed ones (the wall-clock loop,
+        :mod:`contactmpc.online`, evaluates its published copy while the planner works on its own).
+        """
+        theta = self.theta if theta is None else theta
+        return self.problem.space.controls(theta, self.problem.spline.basis(times))
 
     def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
         """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M)."""
@@ -251,6 +256,11 @@ class Planner:
             num_diverged=int(diverged.sum()),
             seconds=time.perf_counter() - start,
         )
+
+    def window_std(self, window: np.ndarray) -> np.ndarray:
+        """The sampling noise of the window's control points: (d,), or (Mw, d) where it varies per
+        control point (``sampler.root_window``)."""
+        return self.noise_std if self.noise_std.ndim == 1 else self.noise_std[window]
 
     def gaussian(self, rng: np.random.Generator, nominal: np.ndarray, std: np.ndarray) -> np.ndarray:
         """(S, Mw, d) samples: row 0 the nominal, the rest ``nominal + std * N(0, 1)``."""

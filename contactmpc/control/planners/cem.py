@@ -52,7 +52,6 @@ class CEM(Planner):
     def update(self, candidates: np.ndarray, costs: np.ndarray, window: np.ndarray) -> np.ndarray:
         elites = candidates[np.argsort(costs, kind="stable")[: self.num_elites]]
         std = elites.std(axis=0)
-        self.std[window] = np.clip(
-            std, self.min_std_ratio * self.noise_std, self.max_std_ratio * self.noise_std
-        )
+        base = self.window_std(window)
+        self.std[window] = np.clip(std, self.min_std_ratio * base, self.max_std_ratio * base)
         return elites.mean(axis=0)

@@ -27,7 +27,7 @@ class MPPI(Planner):
         self.temperature = float(temperature)
 
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
-        return self.gaussian(rng, nominal, self.noise_std)
+        return self.gaussian(rng, nominal, self.window_std(window))
 
     def update(self, candidates: np.ndarray, costs: np.ndarray, window: np.ndarray) -> np.ndarray:
         finite = np.isfinite(costs)

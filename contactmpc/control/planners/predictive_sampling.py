@@ -15,7 +15,7 @@ class PredictiveSampling(Planner):
     """
 
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
-        return self.gaussian(rng, nominal, self.noise_std)
+        return self.gaussian(rng, nominal, self.window_std(window))
 
     def update(self, candidates: np.ndarray, costs: np.ndarray, window: np.ndarray) -> np.ndarray:
         return candidates[int(np.argmin(costs))]
