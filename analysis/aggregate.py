@@ -91,6 +91,18 @@ COLUMN_TYPES: dict[str, str | None] = {
     "contact_span_start": "float",
     "contact_span_end": "float",
     "completed": "boolean",
+    "settled": "boolean",
+    "finished_cleanly": "boolean",
+    "settled_time": "float",
+    "reference_lets_go": "boolean",
+    # the object's errors over the contact span and after it (records before them: NaN), then over
+    # the whole trial
+    **{
+        f"object_{q}_error_{window}_{stat}": "float"
+        for q in ("position", "rotation", "articulation")
+        for window in ("span", "after")
+        for stat in ("mean", "final")
+    },
     "object_position_error_mean": "float",
     "object_rotation_error_mean": "float",
     "object_articulation_error_mean": "float",

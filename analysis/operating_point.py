@@ -4,8 +4,9 @@ Reads the records of ``experiment=operating_point`` (or any sweep over ``planner
 ``planner.horizon``, the replan interval and the latency) and groups the trials by task, fidelity (as
 :mod:`analysis.paper_fig3` tells it from the config) and operating point: samples x horizon, the replan
 interval and the latency each record states (``replan_interval``, ``latency``). Per point: trials,
-completed, the milestones reached, median TTF, mean and final object position error, and the compute one
-trial cost (``cpu_seconds`` where the record has it, else its wall time; single-threaded jobs).
+completed, finished cleanly, the milestones reached, median TTF, the object position error (mean over the
+contact span, mean after it, mean over the whole trial, final; NaN where an older record lacks one), and the
+compute one trial cost (``cpu_seconds`` where the record has it, else its wall time; single-threaded jobs).
 
 ``cheapest`` names, per task and fidelity, the cheapest point (by the rollout steps it simulates per
 second of control, samples x horizon steps / interval) that completes at least ``need`` of its trials
@@ -36,7 +37,7 @@ PAPER_POINT = (128, 2.5)  # samples, horizon (s)
 
 def load(*dirs: str | Path) -> pd.DataFrame:
     """One row per trial record: task, fidelity, samples, horizon, interval (s), latency (s), seed,
-    status, completed, ttf, errors, compute seconds, milestones reached (name -> bool)."""
+    status, completed, finished cleanly, ttf, errors, compute seconds, milestones reached (name -> bool)."""
     known = fidelities()
     rows = []
     for d in dirs:
@@ -63,7 +64,10 @@ def load(*dirs: str | Path) -> pd.DataFrame:
                     "seed": r.get("seed"),
                     "status": r.get("status"),
                     "completed": bool(r.get("completed")) if ok else False,
+                    "finished_cleanly": bool(r.get("finished_cleanly")) if ok else False,
                     "ttf": r.get("ttf") if ok else np.nan,
+                    "error_span": r.get("object_position_error_span_mean") if ok else np.nan,
+                    "error_after": r.get("object_position_error_after_mean") if ok else np.nan,
                     "error_mean": r.get("object_position_error_mean") if ok else np.nan,
                     "error_final": r.get("final_object_position_error") if ok else np.nan,
                     "compute": r.get("cpu_seconds") or r.get("wall_seconds"),
@@ -81,7 +85,8 @@ def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: 
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:
-    """Per task, fidelity and point: trials, completed, milestones, TTF, errors, compute."""
+    """Per task, fidelity and point: trials, completed, finished cleanly, milestones, TTF, errors (medians
+    over the trials: in the span, after it, whole trial, final), compute."""
     keys = ["task", "fidelity", "samples", "horizon", "interval", "latency"]
     rows = []
     for key, g in df.groupby(keys, sort=False):
@@ -94,8 +99,11 @@ def summary(df: pd.DataFrame) -> pd.DataFrame:
             trials=len(g),
             errors=int((g["status"] != "ok").sum()),
             completed=int(g["completed"].sum()),
+            finished_cleanly=int(g["finished_cleanly"].sum()),
             milestones=", ".join(f"{k} {v}" for k, v in reached.items()),
             ttf_median=float(pd.to_numeric(g["ttf"], errors="coerce").median()),
+            error_span_mm=1e3 * float(pd.to_numeric(g["error_span"], errors="coerce").median()),
+            error_after_mm=1e3 * float(pd.to_numeric(g["error_after"], errors="coerce").median()),
             error_mean_mm=1e3 * float(pd.to_numeric(g["error_mean"], errors="coerce").median()),
             error_final_mm=1e3 * float(pd.to_numeric(g["error_final"], errors="coerce").median()),
             compute_s=float(pd.to_numeric(g["compute"], errors="coerce").median()),
@@ -144,17 +152,22 @@ def label(row) -> str:
 def markdown(table: pd.DataFrame, best: pd.DataFrame) -> str:
     """The map and the cheapest points as markdown tables."""
     lines = [
-        "| task | fidelity | samples x horizon | interval | latency | completed | milestones | TTF median "
-        "| object error mean / final (mm, median) | compute per trial (s) | rollout steps per s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| task | fidelity | samples x horizon | interval | latency | completed | finished cleanly "
+        "| milestones | TTF median | object error in span / after span / whole trial / final (mm, median) "
+        "| compute per trial (s) | rollout steps per s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table.itertuples():
         lines.append(
             f"| {r.task} | {r.fidelity} | {r.samples} x {r.horizon:g} s | {1e3 * r.interval:.0f} ms "
             f"| {1e3 * r.latency:.0f} ms | {r.completed}/{r.trials}"
             + (f" ({r.errors} error)" if r.errors else "")
-            + f" | {r.milestones} | {_num(r.ttf_median, '{:.2f}')} | {_num(r.error_mean_mm, '{:.0f}')} / "
-            f"{_num(r.error_final_mm, '{:.0f}')} | {_num(r.compute_s, '{:.0f}')} | {r.cost:,.0f} |"
+            + f" | {r.finished_cleanly}/{r.trials} | {r.milestones} | {_num(r.ttf_median, '{:.2f}')} | "
+            + " / ".join(
+                _num(e, "{:.0f}")
+                for e in (r.error_span_mm, r.error_after_mm, r.error_mean_mm, r.error_final_mm)
+            )
+            + f" | {_num(r.compute_s, '{:.0f}')} | {r.cost:,.0f} |"
         )
     lines += ["", "| task | fidelity | paper point(s) | cheapest point that completes | completed |"]
     lines.append("|---|---|---|---|---|")

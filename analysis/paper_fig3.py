@@ -134,20 +134,26 @@ def fig3(df: pd.DataFrame, path: str | Path | None = None) -> Figure:
 
 
 def markdown(df: pd.DataFrame) -> str:
-    """The table per task x variant x fidelity (completion, median TTF and IQR, errors) and the tests."""
+    """The table per task x variant x fidelity (completion, finished cleanly, median TTF and IQR, the
+    object's position error over the contact span, after it and over the whole trial, errors) and the
+    tests."""
     summary = _in_order(summary_table(df), "condition")
     tests = _in_order(significance_tests(df), "condition")
     lines = [
-        "| task | variant | fidelity | completed | median TTF % (IQR) | mean object error | errors |",
-        "|---|---|---|---|---|---|---|",
+        "| task | variant | fidelity | completed | finished cleanly | median TTF % (IQR) "
+        "| object error in span / after span / whole trial (mm) | errors |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in summary.itertuples(index=False):
         done = f"{round(r.completion_rate * r.n)}/{r.n}" if r.n else "0/0"
+        rate = r.finished_cleanly_rate
+        clean = f"{round(rate * r.n)}/{r.n}" if np.isfinite(rate) else "—"
         ttf = f"{100 * r.ttf_median:.1f} ({100 * r.ttf_q25:.1f}–{100 * r.ttf_q75:.1f})" if r.n else "—"
-        # a task without a free object body (the doorknob's slide) has no position error: "—"
-        err = r.object_position_error_mean
-        err = f"{1000 * err:.0f} mm" if np.isfinite(err) and err > 1e-9 else "—"
-        lines.append(f"| {r.task} | {r.variant} | {r.condition} | {done} | {ttf} | {err} | {r.errors} |")
+        errors = (r.object_position_error_span_mean, r.object_position_error_after_mean)
+        err = " / ".join(_mm(e) for e in (*errors, r.object_position_error_mean))
+        lines.append(
+            f"| {r.task} | {r.variant} | {r.condition} | {done} | {clean} | {ttf} | {err} | {r.errors} |"
+        )
     lines += [
         "",
         "Mann–Whitney U (two-sided) of TTF, `full` against each ablation, per task and fidelity "
@@ -163,6 +169,12 @@ def markdown(df: pd.DataFrame) -> str:
             f"{r.U:.1f} | {r.p:.3g} | {r.p_holm:.3g} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _mm(err: float) -> str:
+    """A position error in mm; "—" where none was recorded, or where the task has no free object body
+    (the doorknob's slide: its position error is 0)."""
+    return f"{1000 * err:.0f}" if np.isfinite(err) and err > 1e-9 else "—"
 
 
 def _in_order(table: pd.DataFrame, fidelity: str) -> pd.DataFrame:

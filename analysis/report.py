@@ -30,6 +30,19 @@ from analysis.aggregate import (
 )
 
 REFERENCE_VARIANT = "full"
+#: The position errors of :func:`summary_table`: the tracking error (over the contact span), after the
+#: span, and over the whole trial.
+ERROR_COLUMNS: tuple[str, ...] = (
+    "object_position_error_span_mean",
+    "object_position_error_after_mean",
+    "object_position_error_mean",
+)
+
+
+def _mean(values: pd.Series) -> float:
+    """Mean of the recorded values, NaN where none is (a field older records lack)."""
+    values = pd.to_numeric(values, errors="coerce")
+    return float(values.mean()) if values.notna().any() else math.nan
 
 
 def _in(df: pd.DataFrame, task: str, variant: str, condition: str) -> pd.Series:
@@ -40,7 +53,10 @@ def _in(df: pd.DataFrame, task: str, variant: str, condition: str) -> pd.Series:
 def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     """Statistics per task, variant and condition.
 
-    TTF, completion and tracking error are over the trials with status ``ok`` (and a TTF) only.
+    TTF, completion and tracking error are over the trials with status ``ok`` (and a TTF) only. The
+    tracking error is the object's position error over the contact span, where the reference asks the
+    hand to do the task; after the span and over the whole trial are columns of their own. Records
+    written before the span errors and ``finished_cleanly`` existed give NaN there.
 
     Args:
         df: the table of :func:`analysis.aggregate.load_records`.
@@ -49,9 +65,12 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
         One row per (task, variant, condition) in paper order, columns ``task``, ``variant``,
         ``condition`` (the config values that set it apart, empty for a variant run under one
         condition), ``trials`` (all records), ``n`` (status ok), ``errors`` (status not ok),
-        ``completion_rate`` (mean of ``completed`` where recorded, NaN if never), ``ttf_median``,
-        ``ttf_q25``, ``ttf_q75`` (fractions of the contact span) and ``object_position_error_mean`` (m,
-        mean over trials of the per-trial mean).
+        ``completion_rate`` (mean of ``completed`` where recorded, NaN if never),
+        ``finished_cleanly_rate`` (the same of ``finished_cleanly``: completed, and the object left at
+        rest where the reference leaves it), ``ttf_median``, ``ttf_q25``, ``ttf_q75`` (fractions of the
+        contact span), and the object position error (m, mean over trials of the per-trial mean)
+        ``object_position_error_span_mean`` over the contact span, ``object_position_error_after_mean``
+        after it and ``object_position_error_mean`` over the whole trial.
     """
     good = ok_trials(df)
     rows = []
@@ -60,6 +79,7 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
         g = good[_in(good, task, variant, condition)]
         ttf = g["ttf"].to_numpy(float)
         completed = g["completed"].dropna()
+        clean = g["finished_cleanly"].dropna() if "finished_cleanly" in g else pd.Series(dtype=float)
         rows.append(
             {
                 "task": task,
@@ -69,12 +89,11 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
                 "n": len(g),
                 "errors": int((df.loc[sel, "status"] != "ok").sum()),
                 "completion_rate": float(completed.astype(float).mean()) if len(completed) else math.nan,
+                "finished_cleanly_rate": float(clean.astype(float).mean()) if len(clean) else math.nan,
                 "ttf_median": float(np.median(ttf)) if len(ttf) else math.nan,
                 "ttf_q25": float(np.percentile(ttf, 25)) if len(ttf) else math.nan,
                 "ttf_q75": float(np.percentile(ttf, 75)) if len(ttf) else math.nan,
-                "object_position_error_mean": float(g["object_position_error_mean"].mean())
-                if g["object_position_error_mean"].notna().any()
-                else math.nan,
+                **{col: _mean(g[col]) if col in g else math.nan for col in ERROR_COLUMNS},
             }
         )
     return pd.DataFrame(
@@ -87,10 +106,11 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
             "n",
             "errors",
             "completion_rate",
+            "finished_cleanly_rate",
             "ttf_median",
             "ttf_q25",
             "ttf_q75",
-            "object_position_error_mean",
+            *ERROR_COLUMNS,
         ],
     )
 
@@ -265,9 +285,12 @@ def markdown_report(
             "n",
             "errors",
             "completion",
+            "finished cleanly",
             "median TTF %",
             "IQR TTF %",
-            "mean obj. pos. err. (mm)",
+            "obj. pos. err. in span (mm)",
+            "after span (mm)",
+            "whole trial (mm)",
         ],
         [
             [
@@ -277,20 +300,26 @@ def markdown_report(
                 r.n,
                 r.errors,
                 _pct(r.completion_rate, 0, suffix=" %"),
+                _pct(r.finished_cleanly_rate, 0, suffix=" %"),
                 _pct(r.ttf_median),
                 f"{_pct(r.ttf_q25)}–{_pct(r.ttf_q75)}" if np.isfinite(r.ttf_q25) else "—",
+                _num(1000.0 * r.object_position_error_span_mean, 1),
+                _num(1000.0 * r.object_position_error_after_mean, 1),
                 _num(1000.0 * r.object_position_error_mean, 1),
             ]
             for r in summary.itertuples(index=False)
         ],
-        align="ll" + "l" * conditioned + "rrrrrr",
+        align="ll" + "l" * conditioned + "rrrrrrrrr",
     )
     lines += [
         "",
         "TTF is the time to failure as a percentage of the span between the first and last expected contact;",
         "`n` counts the trials with status ok (only they count for TTF, completion and error), `errors` the",
         "others (error, diverged, unfinished). Completion is the rate of the task's own success predicate,",
-        "where recorded: TTF overestimates success (paper §III).",
+        "where recorded: TTF overestimates success (paper §III). *Finished cleanly*: completed, and at the",
+        "end the object at rest where the reference leaves it, let go where the reference lets go. Object",
+        "position errors are means over trials of each trial's mean: over the contact span (the tracking",
+        "error), after it (release and retreat), and over the whole trial; — where no record has them.",
         "",
         f"## {REFERENCE_VARIANT} vs each ablation (Mann–Whitney U on TTF, two-sided)",
         "",

@@ -83,3 +83,37 @@ def time_to_failure(
     span = last - first
     ttf = 1.0 if span <= 0 else float(np.clip((failure - first) / span, 0.0, 1.0))
     return TTFResult(ttf, True, failure, (float(first), float(last)))
+
+
+def errors_by_window(
+    time: np.ndarray, errors: dict[str, np.ndarray], span: tuple[float, float] | None
+) -> dict[str, float | None]:
+    """Mean and final value of each error over the contact span and after it.
+
+    The *span* is the samples from the first to the last instant with any expected contact (both
+    included, :attr:`TTFResult.span`): where the reference asks the hand to do the task. *After* is
+    the samples past its end: the reference's release and retreat, where an object set down and then
+    knocked off or carried away shows up.
+
+    Args:
+        time: (N,) sample times (s).
+        errors: name -> (N,) error per sample (e.g. ``"object_position_error"``).
+        span: (first, last) instants of the contact span (s), or ``None`` when there is none.
+
+    Returns:
+        ``<name>_span_mean``, ``<name>_span_final``, ``<name>_after_mean``, ``<name>_after_final`` for
+        each name: floats, or ``None`` where the window holds no sample (no span, nothing after it).
+    """
+    t = np.asarray(time, float)
+    if span is None:
+        windows = {"span": np.zeros(len(t), bool), "after": np.zeros(len(t), bool)}
+    else:
+        windows = {"span": (t >= span[0] - 1e-9) & (t <= span[1] + 1e-9), "after": t > span[1] + 1e-9}
+    out: dict[str, float | None] = {}
+    for name, values in errors.items():
+        values = np.asarray(values, float)
+        for window, sel in windows.items():
+            inside = values[sel]
+            out[f"{name}_{window}_mean"] = float(np.mean(inside)) if len(inside) else None
+            out[f"{name}_{window}_final"] = float(inside[-1]) if len(inside) else None
+    return out

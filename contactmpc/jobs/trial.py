@@ -14,7 +14,7 @@ import numpy as np
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
 from contactmpc.control.samplers import SplineSpace
-from contactmpc.metrics import time_to_failure
+from contactmpc.metrics import errors_by_window, time_to_failure
 from contactmpc.perturbations import Perturbation
 from contactmpc.records import (
     RECORD_NAME,
@@ -77,7 +77,8 @@ def run_trial(
         failure_gap: TTF rule: seconds without any contact (paper 0.3).
         failure_min_expected: TTF rule: needs more than this many expected contacts (paper 6).
         milestone_hold: a milestone counts when its condition holds, with the hand touching the
-            object, for at least this many seconds in a row.
+            object, for at least this many seconds in a row; the final one (``settled``) when it
+            holds over the trial's last this many seconds or more.
         reference_cache: directory caching synthesised references (``None`` disables).
         video: ``"gif"`` or ``"mp4"`` to render the trial next to its record (``trial.<ext>``);
             ``None`` renders nothing.
@@ -135,13 +136,14 @@ def run_trial(
     record["config"] = config
     path = write_json(out / RECORD_NAME, record)
     logger.info(
-        "%s seed %d: ttf %s, completed %s %s, object error %.1f mm / %.1f deg / %.3f rad or m (mean), "
-        "%.1f s simulated in %.1f s (real-time factor %.3f)",
+        "%s seed %d: ttf %s, completed %s %s, settled %s, object error %.1f mm / %.1f deg / %.3f rad or m "
+        "(mean over the trial), %.1f s simulated in %.1f s (real-time factor %.3f)",
         scene.task.name,
         seed,
         "none (no contact expected during the trial)" if record["ttf"] is None else f"{record['ttf']:.2f}",
         record["completed"],
         {k[10:]: v for k, v in record.items() if k.startswith("milestone_")},
+        record["settled"],
         1000 * record["object_position_error_mean"],
         np.degrees(record["object_rotation_error_mean"]),
         record["object_articulation_error_mean"],
@@ -200,7 +202,13 @@ def _write_failure(
 
 
 def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected: int, hold: float) -> dict:
-    """Flat summary fields of a finished trial's log (``hold``: see ``milestone_hold``)."""
+    """Flat summary fields of a finished trial's log (``hold``: see ``milestone_hold``).
+
+    ``completed`` is every milestone of :meth:`~contactmpc.tasks.base.Task.milestones`; ``settled`` is
+    the final milestone (:meth:`~contactmpc.tasks.base.Task.settled`: the trial ends as the reference
+    ends, the object at rest at its final pose and let go where the reference lets go), kept out of
+    ``milestone_*`` and of ``completed``; ``finished_cleanly`` is both.
+    """
     ttf = time_to_failure(series["time"], series["contacts"], series["expected_contacts"], gap, min_expected)
     plan = series["plan_seconds"]
     sim = float(trial.duration)
@@ -209,11 +217,22 @@ def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected:
     expected = series["expected_object_qpos"]
     held = series["contacts"].any(axis=-1)
     milestones = task.milestones(series["object_qpos"], expected, held, series["time"], hold)
+    completed = all(milestones.values())
+    let_go = not bool(trial.track.contact_active[-1].any())  # the reference ends without contact
+    settled = task.settled(
+        series["object_qpos"], trial.track.object_qpos[-1], held, series["time"], hold, let_go
+    )
+    names = ("object_position_error", "object_rotation_error", "object_articulation_error")
+    windows = errors_by_window(series["time"], {k: series[k] for k in names}, ttf.span)
     return {
         "ttf": ttf.ttf,
         "ttf_note": ttf.note,
-        "completed": all(milestones.values()),
+        "completed": completed,
         **{f"milestone_{k}": v for k, v in milestones.items()},
+        "settled": settled is not None,
+        "settled_time": settled,
+        "reference_lets_go": let_go,
+        "finished_cleanly": completed and settled is not None,
         "failed": ttf.failed,
         "failure_time": ttf.failure_time,
         "contact_span_start": None if ttf.span is None else ttf.span[0],
@@ -221,6 +240,7 @@ def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected:
         "object_position_error_mean": float(np.mean(series["object_position_error"])),
         "object_rotation_error_mean": float(np.mean(series["object_rotation_error"])),
         "object_articulation_error_mean": float(np.mean(series["object_articulation_error"])),
+        **windows,
         "final_object_position_error": float(final_err.position),
         "final_object_rotation_error": float(final_err.rotation),
         "final_object_articulation_error": float(final_err.articulation),

@@ -72,6 +72,7 @@ class AppleTask(Task):
 
     LIFT = 0.05  # m above the table to count as lifted
     HANDOFF_TOLERANCE = 0.03  # m from the reference's final (hand-off) position
+    SETTLE_POSITION = HANDOFF_TOLERANCE  # the final milestone's: the final pose is the hand-off pose
 
     def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
         """Lifted off the table; lifted and at the reference's final (hand-off) position."""

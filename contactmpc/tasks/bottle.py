@@ -86,6 +86,7 @@ class BottleTask(Task):
     LIFT = 0.05  # m above the table to count as lifted
     POUR_TILT = 1.2  # rad (~70 deg) from upright to count as pouring
     POUR_TOLERANCE = 0.05  # m from the reference's position while pouring (held, not knocked over)
+    SETTLE_POSITION = POUR_TOLERANCE  # the final milestone's, from the reference's final position
 
     def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
         """Lifted off the table; tilted to pour while lifted and where the reference pours."""

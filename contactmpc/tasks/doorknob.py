@@ -233,6 +233,7 @@ class DoorknobTask(Task):
         spec.add_exclude(bodyname1="door", bodyname2="knob")
 
     OPEN = 0.3  # rad the door must swing towards the hand to count as pulled open
+    SETTLE_ARTICULATION = 0.1  # rad (door and knob): the final milestone's; 5 cm at the door's free edge
 
     def conditions(self, qo: np.ndarray, expected: np.ndarray) -> dict[str, np.ndarray]:
         """Knob twisted past the unlock angle; the door pulled open (columns: door, knob)."""

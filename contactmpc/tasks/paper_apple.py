@@ -26,6 +26,7 @@ class PaperAppleTask(PaperTask):
     object_bodies = ("apple_sim",)
     START_OFFSET = (0.0, 0.012, 0.0)
     HANDOFF_TOLERANCE = 0.05
+    SETTLE_POSITION = HANDOFF_TOLERANCE  # the final milestone's: from where the reference sets it down
     # their "Recording" camera's direction, closer
     view = {"lookat": (0.12, -0.25, 1.15), "distance": 1.3, "azimuth": 171.0, "elevation": -15.0}
 

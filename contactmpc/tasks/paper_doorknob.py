@@ -32,6 +32,9 @@ class PaperDoorknobTask(PaperTask):
     KNOB_POS = (-0.047, 0.0, 0.0)  # in the attachment's frame
     KNOB_QUAT = (0.47815212453295514, 0.5128687163825603, -0.5009253359069297, -0.5073559237924161)
     PULL_FRACTION = 0.75
+    # The final milestone's, on the slide (m, m/s): the free objects' position tolerance and rest speed.
+    SETTLE_ARTICULATION = 0.05
+    REST_ARTICULATION_SPEED = 0.02
     # their "Recording" camera's direction, closer
     view = {"lookat": (-0.25, -0.65, 0.95), "distance": 0.8, "azimuth": 60.0, "elevation": -20.0}
 

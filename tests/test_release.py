@@ -1,0 +1,252 @@
+"""The end of a trial on constructed time series (no MuJoCo): the final milestone (*settled*: the object
+at rest where the reference leaves it, let go where the reference lets go), the errors over the contact
+span and after it, the record fields ``summarize`` builds from them, and the analysis of records with
+and without those fields."""
+
+from __future__ import annotations
+
+import json
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from analysis.aggregate import load_records
+from analysis.operating_point import load as load_points
+from analysis.operating_point import markdown as point_markdown
+from analysis.operating_point import summary as point_summary
+from analysis.paper_fig3 import fidelities
+from analysis.paper_fig3 import markdown as fig3_markdown
+from analysis.report import markdown_report, summary_table
+from contactmpc.jobs.trial import summarize
+from contactmpc.metrics import errors_by_window
+from contactmpc.tasks import AppleTask, DoorknobTask
+from contactmpc.tasks.base import sustained_to_end
+
+DT = 0.05  # s between logged rows (the lite preset's replan period)
+HOLD = 0.3  # s, job.milestone_hold
+START = np.array([0.0, 0.0, 0.037, 1.0, 0.0, 0.0, 0.0])  # the apple on the table
+FINAL = np.array([0.10, 0.0, 0.037, 1.0, 0.0, 0.0, 0.0])  # where the reference sets it down
+
+
+def apple_log(release: float = 2.5, duration: float = 4.0):
+    """The apple carried (held) from START to FINAL by t = 2 s, resting there, let go at ``release``.
+
+    Returns:
+        task, time (N,), object configurations (N, 7), held (N,) bool.
+    """
+    task = AppleTask(hand_home=[0.0] * 22)
+    t = np.arange(int(round(duration / DT)) + 1) * DT
+    s = np.clip(t / 2.0, 0.0, 1.0)[:, None]
+    qo = (1.0 - s) * START + s * FINAL
+    qo[:, 2] += 0.1 * np.sin(np.pi * s[:, 0])  # lifted on the way
+    return task, t, qo, t < release - 1e-9
+
+
+def test_sustained_to_end_is_the_final_run():
+    t = np.arange(10) * 0.1
+    mask = np.array([1, 1, 1, 1, 0, 0, 1, 1, 1, 1], bool)  # the early run is longer; only the last counts
+    assert sustained_to_end(mask, t, 0.3) == pytest.approx(0.6)
+    assert sustained_to_end(mask, t, 0.31) is None
+    assert sustained_to_end(np.r_[mask[:-1], False], t, 0.0) is None  # not so at the last row
+    assert sustained_to_end(np.ones(10, bool), t, 0.9) == 0.0
+
+
+def test_placed_at_rest_and_let_go():
+    task, t, qo, held = apple_log(release=2.5)
+    assert task.settled(qo, FINAL, held, t, HOLD, let_go=True) == pytest.approx(2.5)
+    # a few millimetres off the pose, and the rest noise of a real table, still count
+    qo[t >= 2.5, 0] += 0.004 + 1e-4 * np.sin(t[t >= 2.5] * 40)
+    assert task.settled(qo, FINAL, held, t, HOLD, let_go=True) == pytest.approx(2.55)
+
+
+def test_knocked_off_after_being_set_down():
+    """Set down and let go for 0.5 s (longer than the hold), then knocked to the floor: not settled."""
+    task, t, qo, held = apple_log(release=2.5)
+    fall = t >= 3.0
+    qo[fall, :3] = FINAL[:3] + np.minimum(t[fall] - 3.0, 0.4)[:, None] / 0.4 * [0.3, 0.2, -1.1]
+    assert task.settled(qo, FINAL, held, t, HOLD, let_go=True) is None
+    # at rest on the floor, far from the final pose, for a full second: still not
+    assert np.all(task.at_rest(qo, t)[t >= 3.5])
+
+
+def test_carried_away_or_still_touched():
+    task, t, qo, held = apple_log(release=10.0)  # never let go
+    assert task.settled(qo, FINAL, held, t, HOLD, let_go=True) is None  # at the pose, but still touched
+    # carried off in the grip: 0.5 m over the last 1.5 s, touched throughout
+    away = t > 2.5
+    qo[away, 1] += 0.5 * (t[away] - 2.5) / 1.5
+    assert task.settled(qo, FINAL, held, t, HOLD, let_go=True) is None
+    # let go, within the tolerance, but still sliding at 4 cm/s: not at rest
+    task, t, qo, held = apple_log(release=2.5)
+    slide = t >= 3.5
+    qo[slide, 0] += 0.04 * (t[slide] - 3.5)  # 2 cm in the last 0.5 s: inside the 3 cm tolerance
+    assert np.all(task.near_final(qo, FINAL)[slide])
+    assert task.settled(qo, FINAL, held, t, HOLD, let_go=True) is None
+
+
+def test_let_go_too_briefly_before_the_end():
+    task, t, qo, held = apple_log(release=3.8)  # 0.2 s without contact before the trial ends at 4 s
+    assert task.settled(qo, FINAL, held, t, HOLD, let_go=True) is None
+    assert task.settled(qo, FINAL, held, t, hold=0.2, let_go=True) == pytest.approx(3.8)
+
+
+def test_a_reference_that_ends_held_asks_for_the_object_held_at_its_final_pose():
+    """The synthetic apple, bottle and stapler demonstrations end with the object held in the air."""
+    task, t, qo, _ = apple_log()
+    touching = np.ones(len(t), bool)
+    # at rest from the first row whose step from the previous one is still (2.0 s ends the carry)
+    assert task.settled(qo, FINAL, touching, t, HOLD, let_go=False) == pytest.approx(2.05)
+    assert task.settled(qo, FINAL, ~touching, t, HOLD, let_go=False) is None  # dropped at the pose
+
+
+def test_doorknob_left_where_the_reference_leaves_it():
+    """The door's articulations (door, knob): the door stays open at -0.6 rad, the knob springs back."""
+    task = DoorknobTask(hand_home=[0.0] * 22)
+    t = np.arange(81) * DT
+    qo = np.stack([-0.6 * np.clip(t / 2.0, 0, 1), 0.9 * (t < 2.5)], axis=1)  # knob released at 2.5 s
+    held = t < 2.5
+    final = np.array([-0.6, 0.0])
+    assert task.settled(qo, final, held, t, HOLD, let_go=True) == pytest.approx(2.55)
+    swung = qo.copy()
+    swung[t >= 3.0, 0] = -0.6 + 0.3 * np.clip((t[t >= 3.0] - 3.0) / 0.5, 0, 1)  # swung back to -0.3
+    assert task.settled(swung, final, held, t, HOLD, let_go=True) is None
+
+
+# ------------------------------------------------------------------------------ errors by window
+def test_errors_over_the_span_and_after_it():
+    t = np.arange(11) * 0.5  # 0 .. 5 s
+    err = np.array([9.0, 1.0, 1.0, 2.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0])
+    out = errors_by_window(t, {"object_position_error": err}, (0.5, 2.5))
+    assert out["object_position_error_span_mean"] == pytest.approx(9.0 / 5)  # rows 1..5, ends included
+    assert out["object_position_error_span_final"] == 3.0
+    assert out["object_position_error_after_mean"] == pytest.approx(6.0)  # rows 6..10
+    assert out["object_position_error_after_final"] == 8.0
+    last = errors_by_window(t, {"e": err}, (0.5, 5.0))  # the span reaches the end: nothing after it
+    assert last["e_after_mean"] is None and last["e_after_final"] is None
+    none = errors_by_window(t, {"e": err}, None)  # no contact expected during the trial
+    assert set(none.values()) == {None}
+
+
+def _trial_and_series(release: float, knocked: bool):
+    """A fake finished trial of the apple and its log: expected contact from 0.5 s to 2.5 s, the
+    reference at FINAL from 2 s on and let go at its end."""
+    task, t, qo, held = apple_log(release=release)
+    if knocked:
+        qo[t >= 3.0, :3] = [0.4, 0.3, -0.7]
+    n, links = len(t), 16
+    expected = np.zeros((n, links), bool)
+    expected[(t >= 0.5) & (t <= 2.5), :8] = True
+    contacts = np.zeros((n, links), bool)
+    contacts[held, 0] = True
+    ref = apple_log()[2]
+    err = task.layout.error(qo, ref)
+    series = {
+        "time": t,
+        "contacts": contacts,
+        "expected_contacts": expected,
+        "object_qpos": qo,
+        "expected_object_qpos": ref,
+        "object_position_error": err.position,
+        "object_rotation_error": err.rotation,
+        "object_articulation_error": err.articulation,
+        "plan_seconds": np.full(n, 0.01),
+        "num_diverged": np.zeros(n, int),
+    }
+    track = SimpleNamespace(object_qpos=np.vstack([ref, ref[-1:]]), contact_active=expected[[-1]])
+    trial = SimpleNamespace(
+        duration=float(t[-1]),
+        scene=SimpleNamespace(task=task),
+        track=track,
+        spline=SimpleNamespace(num_control_points=10),
+        replan_interval=DT,
+        latency=0.0,
+    )
+    return series, trial
+
+
+def test_summarize_records_the_end_of_the_trial():
+    series, trial = _trial_and_series(release=2.5, knocked=False)
+    rec = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
+    assert (rec["completed"], rec["milestone_lifted"], rec["milestone_handed_off"]) == (False, True, False)
+    assert rec["settled"] and rec["settled_time"] == pytest.approx(2.5) and rec["reference_lets_go"]
+    assert rec["finished_cleanly"] is False  # settled, but not completed: the hand-off pose is the apple's
+    assert not any(k.startswith("milestone_") and "settle" in k for k in rec)  # not one of `completed`'s
+    assert (rec["contact_span_start"], rec["contact_span_end"]) == (0.5, 2.5)
+    assert rec["object_position_error_span_mean"] == pytest.approx(0.0)
+    assert rec["object_position_error_after_mean"] == pytest.approx(0.0)
+
+    knocked, trial = _trial_and_series(release=2.5, knocked=True)
+    rec = summarize(knocked, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
+    assert rec["settled"] is False and rec["settled_time"] is None and rec["finished_cleanly"] is False
+    far = float(np.linalg.norm(np.subtract([0.4, 0.3, -0.7], FINAL[:3])))
+    assert rec["object_position_error_span_mean"] == pytest.approx(0.0)  # the task itself was tracked
+    assert rec["object_position_error_after_final"] == pytest.approx(far)
+    rows_after = np.sum(knocked["time"] > 2.5 + 1e-9)
+    rows_knocked = np.sum(knocked["time"] >= 3.0 - 1e-9)
+    assert rec["object_position_error_after_mean"] == pytest.approx(far * rows_knocked / rows_after)
+    assert rec["object_position_error_mean"] < rec["object_position_error_after_mean"]
+    json.dumps(rec)  # a record: plain JSON
+
+    # a task whose milestones a set-down can complete: completed, settled, finished cleanly
+    series, trial = _trial_and_series(release=2.5, knocked=False)
+    task = trial.scene.task
+    task.conditions = lambda qo, expected: {"lifted": task.lift(qo) > task.LIFT}
+    rec = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
+    assert rec["completed"] and rec["settled"] and rec["finished_cleanly"] is True
+
+
+# ------------------------------------------------------------------------ analysis, old and new records
+def _write(directory, name, record):
+    run = directory / name
+    run.mkdir(parents=True)
+    (run / "trial.json").write_text(json.dumps(record))
+
+
+def _record(seed, new: bool, **extra):
+    config = {
+        "planner": {"num_samples": 32, "horizon": 1.0, "replan_period": 0.05, "latency": 0.0},
+        "fidelity": fidelities()["paper"],
+        "seed": seed,
+    }
+    record = {
+        "task": "paper_apple", "cost": "contact", "sampler": "pca_spline", "planner": "predictive_sampling",
+        "seed": seed, "status": "ok", "ttf": 1.0, "completed": True, "milestone_lifted": True,
+        "milestone_handed_off": True, "object_position_error_mean": 0.2, "final_object_position_error": 1.2,
+        "replan_interval": 0.05, "latency": 0.0, "wall_seconds": 10.0, "config": config,
+    }  # fmt: skip
+    if new:
+        record.update(
+            settled=False, settled_time=None, reference_lets_go=True, finished_cleanly=False,
+            object_position_error_span_mean=0.02, object_position_error_span_final=0.03,
+            object_position_error_after_mean=0.9, object_position_error_after_final=1.2,
+        )  # fmt: skip
+    record.update(extra)
+    return record
+
+
+def test_analysis_reads_records_with_and_without_the_new_fields(tmp_path):
+    old, new = tmp_path / "old", tmp_path / "new"
+    for seed in range(2):
+        _write(old, f"s{seed}", _record(seed, new=False))
+        _write(new, f"s{seed + 2}", _record(seed + 2, new=True, finished_cleanly=bool(seed)))
+    before = summary_table(load_records(old)).iloc[0]
+    assert math.isnan(before["object_position_error_span_mean"])
+    assert math.isnan(before["finished_cleanly_rate"])
+    assert before["object_position_error_mean"] == pytest.approx(0.2)
+    after = summary_table(load_records(new)).iloc[0]
+    assert after["object_position_error_span_mean"] == pytest.approx(0.02)
+    assert after["object_position_error_after_mean"] == pytest.approx(0.9)
+    assert after["finished_cleanly_rate"] == pytest.approx(0.5)
+    md = markdown_report(load_records(old, new))  # old and new in one table
+    assert "obj. pos. err. in span (mm)" in md and "whole trial (mm)" in md
+    assert "| 20.0 | 900.0 | 200.0 |" in markdown_report(load_records(new))
+    assert "| — | — | 200.0 |" in markdown_report(load_records(old))
+    df = load_records(new)
+    df["fidelity"] = df["condition"] = "paper"
+    assert "| 1/2 | 100.0 (100.0–100.0) | 20 / 900 / 200 |" in fig3_markdown(df)
+    table = point_summary(load_points(old, new))
+    assert table["trials"].tolist() == [4] and table["finished_cleanly"].tolist() == [1]
+    assert table["error_span_mm"].iloc[0] == pytest.approx(20.0)  # the median of the records that have it
+    assert "| 1/4 |" in point_markdown(table, table.iloc[:0])
