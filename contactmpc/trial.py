@@ -173,25 +173,17 @@ class Trial:
             PlantDiverged: if the plant becomes unstable.
         """
         scene, planner = self.scene, self.planner
-        prng = Perturbation.generator(self.seed)
-        draw = self.draw = self.perturbation.draw(prng, self.duration, self.seed)
-        m = draw.plant_model(scene)  # the scene's plant itself unless the draw changes it
-        d = mujoco.MjData(m)
+        draw, prng, m, d = self.start_plant()
         rng = np.random.default_rng(self.seed)
-        idx = scene.index
         dt = m.opt.timestep
         per_plan = int(round(self.replan_interval / dt))
         lag = int(round(self.latency / dt))  # plant steps on the previous plan after each replan
         n_steps = int(round(self.duration / dt))
-        hand0 = planner.targets(np.array([0.0]))[0]
-        qo0 = draw.initial_object_qpos(scene, scene.task.start_object_qpos(self.reference.object_qpos[0]))
-        scene.reset(d, hand_qpos=hand0, object_qpos=qo0)
         nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         state = np.empty(nstate)
         earlier = None  # the state of one replan period earlier (draw.delay)
         pending = sorted(float(v) for v in snapshots)
         self.snapshots: dict[float, np.ndarray] = {}
-        pushed = int(idx.object_bodies[0])
         log = TrialLog()
         offsets = np.arange(per_plan) * dt
         bar = tqdm(
@@ -218,21 +210,60 @@ class Trial:
                     targets = previous
                 self._log(log, d, t, targets[0], info)
                 for j in range(min(per_plan, n_steps - k)):
-                    d.ctrl[idx.actuators] = targets[j]
-                    force = draw.push_force(t + j * dt, t + (j + 1) * dt, dt) if draw.push_times else None
-                    if force is not None:
-                        d.xfrc_applied[pushed, :3] = force
-                    mujoco.mj_step(m, d)
-                    if force is not None:
-                        d.xfrc_applied[pushed, :3] = 0.0
-                if d.warning.number.any() or not np.isfinite(d.qpos).all():  # 1 us (a loop: 50 us)
-                    # MuJoCo resets a diverged plant (d.time restarts): name the control time
-                    end = (k + min(per_plan, n_steps - k)) * dt
-                    raise PlantDiverged(f"plant diverged between t={t:.3f}s and t={end:.3f}s")
+                    self.step_plant(m, d, draw, targets[j], t + j * dt, t + (j + 1) * dt)
+                self.check_plant(d, t, (k + min(per_plan, n_steps - k)) * dt)
                 bar.update(min(per_plan, n_steps - k))
         finally:
             bar.close()
         return log
+
+    # --- the plant, shared with the wall-clock loop (contactmpc.online) -------------------------
+    def start_plant(self) -> tuple[PerturbationDraw, np.random.Generator, mujoco.MjModel, mujoco.MjData]:
+        """Draw the perturbation (:attr:`draw`) and make the plant at its start: the hand at the committed
+        policy's first targets, the object at the task's start (moved by the draw).
+
+        Returns:
+            ``(draw, prng, model, data)``: the draw, its generator (observation noise), the plant model
+            (the scene's own unless the draw changes it) and its data.
+        """
+        scene = self.scene
+        prng = Perturbation.generator(self.seed)
+        draw = self.draw = self.perturbation.draw(prng, self.duration, self.seed)
+        m = draw.plant_model(scene)  # the scene's plant itself unless the draw changes it
+        d = mujoco.MjData(m)
+        hand0 = self.planner.targets(np.array([0.0]))[0]
+        qo0 = draw.initial_object_qpos(scene, scene.task.start_object_qpos(self.reference.object_qpos[0]))
+        scene.reset(d, hand_qpos=hand0, object_qpos=qo0)
+        return draw, prng, m, d
+
+    def step_plant(
+        self,
+        m: mujoco.MjModel,
+        d: mujoco.MjData,
+        draw: PerturbationDraw,
+        target: np.ndarray,
+        t0: float,
+        t1: float,
+    ) -> None:
+        """One physics step from control time ``t0`` to ``t1`` under joint ``target`` (J,), with the
+        draw's pushes on the object."""
+        d.ctrl[self.scene.index.actuators] = target
+        force = draw.push_force(t0, t1, m.opt.timestep) if draw.push_times else None
+        if force is None:
+            mujoco.mj_step(m, d)
+            return
+        pushed = int(self.scene.index.object_bodies[0])
+        d.xfrc_applied[pushed, :3] = force
+        mujoco.mj_step(m, d)
+        d.xfrc_applied[pushed, :3] = 0.0
+
+    @staticmethod
+    def check_plant(d: mujoco.MjData, t0: float, t1: float) -> None:
+        """Raise :class:`PlantDiverged` if the plant went unstable between control times ``t0`` and ``t1``
+        (a MuJoCo warning or a non-finite configuration; 1 us)."""
+        if d.warning.number.any() or not np.isfinite(d.qpos).all():
+            # MuJoCo resets a diverged plant (d.time restarts): name the control time
+            raise PlantDiverged(f"plant diverged between t={t0:.3f}s and t={t1:.3f}s")
 
     def _log(self, log: TrialLog, d: mujoco.MjData, t: float, target: np.ndarray, info) -> None:
         scene, tr = self.scene, self.track

@@ -1,0 +1,222 @@
+"""``job=online``: the loop in wall-clock time, its record, the atomic plan swap, and the viewer.
+
+Timing on 2 busy cores is not for asserting exact values: the runs use a large ``slowdown`` (the plant
+has 10-15 wall milliseconds per 1 ms physics step) and the assertions are about what cannot depend on
+the machine's speed (plans were swapped in, ages are positive, the targets the plant used are one
+published plan's), or bounds with a wide margin.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from hydra.utils import instantiate
+from omegaconf import OmegaConf
+
+from contactmpc.control.cost import TrackingCost
+from contactmpc.control.planners import PlanInfo, Replay
+from contactmpc.control.samplers import PCASplineSpace
+from contactmpc.online import OnlineLoop
+from contactmpc.reference import Reference
+from contactmpc.trial import Trial
+from tests.conftest import REPO_ROOT, build_scene, compose_config
+from tests.helpers import static_reference
+
+
+@pytest.fixture(scope="module")
+def apple_reference(tmp_path_factory) -> str:
+    """A short static reference of the apple task (the fingers flex, the apple stays), as a file."""
+    ref = static_reference(build_scene(("task=apple",)), duration=0.5, frames=11)
+    return str(ref.save(tmp_path_factory.mktemp("online") / "apple.npz"))
+
+
+def run_job(overrides, out_dir):
+    """Compose, instantiate and call the job as ``launch.py`` does (without Hydra's runtime)."""
+    cfg = compose_config(overrides)
+    job = instantiate(cfg.job)
+    return job(
+        make_scene=lambda: build_scene(tuple(overrides)),
+        output_dir=out_dir,
+        seed=cfg.seed,
+        config=OmegaConf.to_container(cfg, resolve=False),
+        labels={"task": "apple"},
+    )
+
+
+@pytest.mark.slow
+def test_an_online_run_swaps_plans_in_and_writes_its_record(apple_reference, tmp_path):
+    """The lite planner live for 0.4 s of control at 15x slower than real time (6 s of wall time)."""
+    overrides = [
+        "job=online",
+        "task=apple",
+        f"task.reference_path={apple_reference}",
+        "planner.nthread=1",
+        "duration=0.4",
+        "job.slowdown=15",
+        "job.progress=false",
+    ]
+    record = json.loads(run_job(overrides, tmp_path).read_text())
+    assert record["status"] == "ok", record.get("error")
+    assert record["mode"] == "online" and record["slowdown"] == 15.0 and record["viewer"] is False
+    # the trial's fields, from the trial's summary
+    for key in ("ttf", "completed", "milestone_lifted", "object_position_error_mean", "contact_fraction"):
+        assert key in record
+    # plans were made and swapped in while the plant ran
+    assert record["num_plans"] >= 3 and record["plans_applied"] >= 3
+    assert record["plans_applied"] <= record["num_plans"]
+    for key in (
+        "replan_interval_median",
+        "replan_interval_step_median",
+        "plan_latency_median",
+        "plan_age_median",
+    ):
+        assert record[key] is not None and record[key] > 0, key
+    assert record["plan_age_p95"] >= record["plan_age_median"]
+    assert record["replan_interval_p95"] >= record["replan_interval_median"]
+    assert record["replan_interval"] == record["replan_interval_median"]  # the realised one
+    assert 0 <= record["stale_steps"] <= 400 and record["stale_threshold"] == 0.05
+    # the plant is paced: never faster than asked (15x slower), and not far slower at that pace
+    assert record["simulated_seconds"] == pytest.approx(0.4)
+    assert record["real_time_factor"] <= 1.02 / 15
+    assert record["real_time_factor"] > 0.5 / 15
+    assert record["plant_wait_seconds"] > 0  # it had time to spare and slept
+    series = np.load(tmp_path / "timeseries.npz")
+    assert series["time"].shape == (8,)  # one row per 50 ms replan interval, as a trial
+    assert np.all(np.diff(series["plan_version"]) >= 0)
+    assert np.all(series["plan_age"] >= 0)
+    assert len(series["plans_state_time"]) == record["num_plans"]
+
+
+class SlowReplay(Replay):
+    """A planner that takes 60 ms of wall time and writes its control points in two halves 30 ms apart,
+    each plan the reference's own control points + 0.01 x its number: a plant that read
+    ``planner.theta`` would see plans torn in half for 30 ms of every 60."""
+
+    count = 0
+
+    def plan(self, t, state, rng) -> PlanInfo:
+        self.count += 1
+        half = len(self.theta) // 2
+        time.sleep(0.03)
+        self.theta[:half] = self.problem.theta0[:half] + 0.01 * self.count
+        time.sleep(0.03)
+        self.theta[half:] = self.problem.theta0[half:] + 0.01 * self.count
+        return PlanInfo(time=t, terms={k: float("nan") for k in self.problem.cost.terms}, seconds=0.06)
+
+
+def test_a_slow_plan_is_swapped_in_whole_and_the_plant_keeps_the_old_one(apple_reference):
+    scene = build_scene(("task=apple",))
+    reference = Reference.load(apple_reference)
+    planner = SlowReplay(horizon=0.2, replan_period=0.01)
+    trial = Trial(
+        scene, reference, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.3, progress=False
+    )
+    loop = OnlineLoop(trial, slowdown=2.0)  # a plan (60 ms wall) lasts ~30 ms of control: ~3 log rows
+    series = loop.run().arrays()
+    plans = loop.plans
+    assert len(plans) >= 3
+    theta0 = trial.problem.theta0
+    for plan in plans:  # each published plan is whole: one offset over all its control points
+        assert not plan.theta.flags.writeable
+        np.testing.assert_allclose(plan.theta - theta0, 0.01 * (plan.version + 1), rtol=0, atol=1e-12)
+    # the targets the plant used (logged every 10 ms) are exactly one published plan's: the one in use
+    for t, version, target in zip(series["time"], series["plan_version"], series["hand_target"], strict=True):
+        np.testing.assert_allclose(
+            target, planner.targets(np.array([t]), plans[version].theta)[0], atol=1e-12
+        )
+    # ... the newest one applied by then, and it stays in use until the next is ready (several rows)
+    swaps = loop.swaps
+    assert [v for v, _ in swaps] == sorted(v for v, _ in swaps)
+    dt = scene.plant_model.opt.timestep
+    for t, version in zip(series["time"], series["plan_version"], strict=True):
+        k = int(round(t / dt))
+        assert version == max(v for v, step in swaps if step <= k)
+    rows_per_plan = np.bincount(series["plan_version"])
+    assert rows_per_plan.max() >= 2  # a plan served two 10 ms rows or more: the plant kept the old plan
+    # a plan takes effect after the state it was planned from
+    summary = loop.summary()
+    assert summary["plan_latency_median"] > 0.005
+    assert summary["plans_applied"] == len(swaps) <= len(plans)
+
+
+class _InterruptingViewer:
+    """Stands in for the viewer: Ctrl-C arrives in the plant's thread at control time 0.1 s."""
+
+    drags: list = []
+
+    def is_running(self) -> bool:
+        return True
+
+    def sync(self, data, t, lines) -> None:
+        assert lines[0][0] == "time"  # the overlay's lines: (label, value)
+        if t >= 0.1:
+            raise KeyboardInterrupt
+
+    def close(self) -> None:
+        pass
+
+
+def test_ctrl_c_ends_an_online_run_with_a_record(apple_reference, tmp_path, monkeypatch):
+    from contactmpc.jobs import online
+
+    monkeypatch.setattr(online.LiveViewer, "open", lambda *args: _InterruptingViewer())
+    overrides = ["job=online", "task=apple", f"task.reference_path={apple_reference}", "planner=replay"]
+    overrides += ["job.viewer=true", "job.progress=false"]
+    with pytest.raises(KeyboardInterrupt):
+        run_job(overrides, tmp_path)
+    record = json.loads((tmp_path / "trial.json").read_text())
+    assert record["status"] == "interrupted" and record["error"] == "KeyboardInterrupt"
+    assert record["simulated_seconds"] == pytest.approx(0.1, abs=0.01)  # how far it ran
+    assert record["num_plans"] >= 1 and record["viewer"] is True
+    assert np.load(tmp_path / "timeseries.npz")["time"][-1] <= 0.1  # the series up to there
+
+
+def test_the_viewer_is_optional_and_says_when_there_is_no_display(monkeypatch, capsys):
+    from contactmpc import viewer
+
+    monkeypatch.setattr(viewer, "display_problem", lambda: "X11: The DISPLAY environment variable is missing")
+    assert viewer.LiveViewer.open(None, None, None, None) is None
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "contactmpc: no display (X11: The DISPLAY environment variable is missing): running headless"
+    ]
+
+
+def _display_command() -> list[str] | None:
+    """How to run a command with a display: ``xvfb-run`` (Debian's ``xvfb``), or the one of ``DISPLAY``."""
+    if shutil.which("xvfb-run"):
+        return ["xvfb-run", "-a", "-s", "-screen 0 1024x640x24"]
+    if os.environ.get("DISPLAY"):
+        return []
+    return None
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    _display_command() is None, reason="no display: neither xvfb-run (apt install xvfb) nor DISPLAY"
+)
+def test_the_viewer_shows_the_plant_and_a_drag_moves_the_apple(apple_reference, tmp_path):
+    """The viewer on a virtual display: a scripted mouse drag (the viewer's perturbation) lifts the plant's
+    apple and is recorded with its time; the ghost is drawn."""
+    script = REPO_ROOT / "tests" / "online_viewer_run.py"
+    cmd = [*_display_command(), sys.executable, str(script), "--reference", apple_reference]
+    cmd += ["--duration", "0.4", "--slowdown", "10", "--drag", "0.1", "0.3", "--pull", "0", "0", "0.2"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=REPO_ROOT)
+    assert done.returncode == 0, done.stderr[-2000:]
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert out["viewer"] is True, done.stderr[-2000:]
+    assert out["ghost_geoms"] > 10  # the reference hand and apple
+    (drag,) = out["drags"]
+    assert drag["body"] == out["object_body"] == "apple" and drag["kind"] == "translate"
+    assert drag["start"] == pytest.approx(0.1, abs=0.01) and drag["end"] == pytest.approx(0.3, abs=0.01)
+    assert drag["max_force"] > 0.5  # N: a 0.2 m pull on a ~0.2 kg apple; measured 4.0
+    # the drag moved the plant's apple up (measured: 37 mm -> 100-116 mm), and only during the drag
+    assert out["z_max"] > out["z_start"] + 0.03
+    assert 0.1 < out["time_of_z_max"] <= 0.35
