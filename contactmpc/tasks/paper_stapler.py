@@ -46,7 +46,7 @@ class PaperStaplerTask(PaperTask):
             if body.name != "tablebody" and body.name and self._is_hand(body):
                 spec.add_exclude(bodyname1=body.name, bodyname2="tablebody")
         self.add_free_object(
-            spec, ("binder0", "binder1", "binder2", "head", "stand"), 1250.0, (0.2, 0.2, 0.22, 1.0)
+            spec, ("binder0", "binder1", "binder2", "head", "stand"), 1250.0, (0.75, 0.12, 0.1, 1.0)
         )
 
     @staticmethod
