@@ -184,3 +184,29 @@ def test_an_offset_off_the_table_or_on_a_fixed_object_is_refused(scene_for) -> N
     # a scale's half-width stops short of 1: no mass, friction or size reaches 0
     with pytest.raises(ConfigError, match="mass_scale must be finite and >= 0 and <= 0.99, got 1.5"):
         Perturbation(mass_scale=1.5)
+
+
+def test_the_wrist_is_sampled_only_around_the_first_expected_contact() -> None:
+    """sampler.root_window: wrist noise on the control points whose support meets the window, none
+    elsewhere; the fingers' noise everywhere; without a window, the space's (d,) noise as before."""
+    from contactmpc.control.samplers import JointSplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    times = np.linspace(0, 10, 50)
+    qpos = np.random.default_rng(0).normal(size=(50, 8))
+    spline = UniformBSpline(12, (0.0, 10.0))
+    space = JointSplineSpace(0.2, root_sigma2=1e-4, root_rotation_sigma2=0.01, root_window=(-1.0, 2.0))
+    space.fit(spline, times, qpos, np.tile([-10.0, 10.0], (8, 1)), 6)
+    std = space.point_noise_std(spline, first_contact=5.0)
+    inside = spline.window_indices(4.0, 3.0)
+    assert std.shape == (12, 8) and 0 < len(inside) < 12
+    np.testing.assert_allclose(std[inside, :6], np.tile([0.01] * 3 + [0.1] * 3, (len(inside), 1)))
+    outside = np.setdiff1d(np.arange(12), inside)
+    assert not std[outside, :6].any()
+    np.testing.assert_allclose(std[:, 6:], np.sqrt(0.2))
+    assert not space.point_noise_std(spline, None)[:, :6].any()  # no contact expected: never
+    plain = JointSplineSpace(0.2, root_sigma2=1e-4)
+    plain.fit(spline, times, qpos, np.tile([-10.0, 10.0], (8, 1)), 6)
+    assert plain.point_noise_std(spline, 5.0).shape == (8,)
+    with pytest.raises(ValueError, match="root_window"):
+        JointSplineSpace(0.2, root_window=(2.0, 1.0))
