@@ -303,7 +303,12 @@ def load_records(*dirs: str | Path, dedupe: bool = True) -> pd.DataFrame:
     if _CONFIG not in df:
         df[_CONFIG] = pd.Series([None] * len(df), dtype=object)
     if len(df):
-        df["variant"] = [variant_name(*x) for x in zip(df["planner"], df["cost"], df["sampler"], strict=True)]
+        # the record's own variant label (variant=wrist, wrist_acquire, robust, ...) wins; without one,
+        # the variant is told from the planner, cost and sampler choices
+        labels = df["variant"] if "variant" in df else pd.Series([None] * len(df), index=df.index)
+        derived = [variant_name(*x) for x in zip(df["planner"], df["cost"], df["sampler"], strict=True)]
+        pairs = zip(labels, derived, strict=True)
+        df["variant"] = [label if isinstance(label, str) and label else name for label, name in pairs]
     df = df[list(COLUMNS) + [c for c in df.columns if c not in COLUMNS]]
     df = _coerce(df)
     if dedupe and len(df):

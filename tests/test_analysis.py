@@ -402,3 +402,13 @@ def test_the_same_trial_in_two_sweeps_is_one_row_and_a_warning(tmp_path):
     assert len(df) == 1 and df["ttf"].iloc[0] == pytest.approx(0.8)
     assert str(new.resolve()) in str(caught[0].message) and str(old.resolve()) in str(caught[0].message)
     assert set(df["condition"]) == {""}
+
+
+def test_a_records_variant_label_names_its_variant(tmp_path):
+    """variant=wrist_acquire has full's cost and sampler choices: its label, not the choices, names it."""
+    for seed in (1, 2):  # (real records differ in their sampler config too; here, in the seed)
+        record = make_record("apple", "full", seed, 1.0) | {"variant": "wrist_acquire"}
+        write_json(tmp_path / f"w{seed}" / "trial.json", record)
+    write_json(tmp_path / "f0" / "trial.json", make_record("apple", "full", 0, 1.0))
+    df = load_records(tmp_path)
+    assert sorted(df["variant"]) == ["full", "wrist_acquire", "wrist_acquire"]
