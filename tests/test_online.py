@@ -17,8 +17,6 @@ import time
 
 import numpy as np
 import pytest
-from hydra.utils import instantiate
-from omegaconf import OmegaConf
 
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners import PlanInfo, Replay
@@ -26,8 +24,9 @@ from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.online import OnlineLoop
 from contactmpc.reference import Reference
 from contactmpc.trial import Trial
-from tests.conftest import REPO_ROOT, build_scene, compose_config
+from tests.conftest import REPO_ROOT, build_scene
 from tests.helpers import static_reference
+from tests.test_trial import run_job
 
 
 @pytest.fixture(scope="module")
@@ -35,19 +34,6 @@ def apple_reference(tmp_path_factory) -> str:
     """A short static reference of the apple task (the fingers flex, the apple stays), as a file."""
     ref = static_reference(build_scene(("task=apple",)), duration=0.5, frames=11)
     return str(ref.save(tmp_path_factory.mktemp("online") / "apple.npz"))
-
-
-def run_job(overrides, out_dir):
-    """Compose, instantiate and call the job as ``launch.py`` does (without Hydra's runtime)."""
-    cfg = compose_config(overrides)
-    job = instantiate(cfg.job)
-    return job(
-        make_scene=lambda: build_scene(tuple(overrides)),
-        output_dir=out_dir,
-        seed=cfg.seed,
-        config=OmegaConf.to_container(cfg, resolve=False),
-        labels={"task": "apple"},
-    )
 
 
 @pytest.mark.slow
