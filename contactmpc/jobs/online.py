@@ -115,12 +115,13 @@ def run_online(
             planner.close()
             if trial.draw is not None:
                 record["perturbation"] = trial.draw.record()
-            record.update(loop.summary())
+            timing = loop.summary()
+            record.update(timing)
         series = log.arrays()
         record.update(
             summarize(series, trial, loop.wall_seconds, failure_gap, failure_min_expected, milestone_hold)
         )
-        record.update(loop.summary())  # the realised timing wins over the configured (replan_interval, ...)
+        record.update(timing)  # the realised timing wins over the configured (replan_interval, ...)
         record["setup_seconds"] = loop0 - wall0
         record["status"] = "ok"
         write_series(out / SERIES_NAME, {**series, **loop.plan_series()})
