@@ -21,7 +21,6 @@ Command line::
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -30,53 +29,63 @@ import pandas as pd
 
 from analysis._cli import fail, sweep_parser
 from analysis.aggregate import TASK_ORDER, ordered
-from analysis.paper_fig3 import FIDELITY_ORDER, fidelities, fidelity_of
+from analysis.paper_fig3 import FIDELITY_ORDER
+from analysis.paper_fig3 import load as fig3_load
 
 PAPER_POINT = (128, 2.5)  # samples, horizon (s)
 
 
 def load(*dirs: str | Path) -> pd.DataFrame:
-    """One row per trial record: task, fidelity, samples, horizon, interval (s), latency (s), seed,
-    status, completed, finished cleanly, ttf, errors, compute seconds, milestones reached (name -> bool)."""
-    known = fidelities()
-    rows = []
+    """One row per trial record (:func:`analysis.paper_fig3.load`: variant, fidelity, the task without its
+    ``paper_`` prefix) with a planner config: task, variant, fidelity, samples, horizon, interval (s),
+    latency (s), seed, status, completed, finished cleanly (NaN where an older record lacks it), ttf,
+    errors, compute seconds, milestones reached (name -> bool)."""
     for d in dirs:
         if not Path(d).is_dir():
             raise FileNotFoundError(f"no such sweep directory: {d}")
-        for path in sorted(Path(d).rglob("trial.json")):
-            try:
-                r = json.loads(path.read_text())
-            except (OSError, ValueError):
-                continue
-            planner = (r.get("config") or {}).get("planner") or {}
-            if "num_samples" not in planner:
-                continue
-            ok = r.get("status") == "ok"
-            interval = r.get("replan_interval") or planner.get("replan_period")
-            rows.append(
-                {
-                    "task": r.get("task"),
-                    "fidelity": fidelity_of(r.get("config"), known),
-                    "samples": int(planner["num_samples"]),
-                    "horizon": float(planner["horizon"]),
-                    "interval": round(float(interval), 4),
-                    "latency": round(float(r.get("latency") or planner.get("latency") or 0.0), 4),
-                    "seed": r.get("seed"),
-                    "status": r.get("status"),
-                    "completed": bool(r.get("completed")) if ok else False,
-                    "finished_cleanly": bool(r.get("finished_cleanly")) if ok else False,
-                    "ttf": r.get("ttf") if ok else np.nan,
-                    "error_span": r.get("object_position_error_span_mean") if ok else np.nan,
-                    "error_after": r.get("object_position_error_after_mean") if ok else np.nan,
-                    "error_mean": r.get("object_position_error_mean") if ok else np.nan,
-                    "error_final": r.get("final_object_position_error") if ok else np.nan,
-                    "compute": r.get("cpu_seconds") or r.get("wall_seconds"),
-                    "milestones": {k[10:]: bool(v) for k, v in r.items() if k.startswith("milestone_")},
-                }
-            )
-    if not rows:
+    df = fig3_load(*dirs)
+    df = df[df["num_samples"].notna()].reset_index(drop=True)
+    if df.empty:
         raise ValueError(f"no trial records with a planner config under {', '.join(map(str, dirs))}")
-    return pd.DataFrame(rows)
+    ok = df["status"] == "ok"
+
+    def column(name: str) -> pd.Series:
+        values = df[name] if name in df else pd.Series(np.nan, index=df.index)
+        return pd.to_numeric(values, errors="coerce").where(ok)
+
+    interval = column("replan_interval").fillna(df["replan_period"])
+    latency = column("latency").fillna(0.0)
+    clean = df["finished_cleanly"] if "finished_cleanly" in df else pd.Series(None, index=df.index)
+    milestones = [c for c in df.columns if c.startswith("milestone_")]
+    cpu = column("cpu_seconds") if "cpu_seconds" in df else pd.Series(np.nan, index=df.index)
+    return pd.DataFrame(
+        {
+            "task": df["task"],
+            "variant": df["variant"],
+            "fidelity": df["fidelity"],
+            "samples": df["num_samples"].astype(int),
+            "horizon": df["horizon"].astype(float),
+            "interval": interval.astype(float).round(4),
+            "latency": latency.astype(float).round(4),
+            "seed": df["seed"],
+            "status": df["status"],
+            "completed": df["completed"].fillna(False).astype(bool) & ok,
+            "finished_cleanly": [
+                (bool(c) if ok_ else False) if isinstance(c, bool | np.bool_) else np.nan
+                for c, ok_ in zip(clean, ok, strict=True)
+            ],
+            "ttf": column("ttf"),
+            "error_span": column("object_position_error_span_mean"),
+            "error_after": column("object_position_error_after_mean"),
+            "error_mean": column("object_position_error_mean"),
+            "error_final": column("final_object_position_error"),
+            "compute": cpu.fillna(pd.to_numeric(df["wall_seconds"], errors="coerce")),
+            "milestones": [
+                {c[10:]: bool(v) for c, v in row.items() if isinstance(v, bool | np.bool_)}
+                for row in df[milestones].to_dict("records")
+            ],
+        }
+    )
 
 
 def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: float = 0.01) -> float:
@@ -87,7 +96,7 @@ def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: 
 def summary(df: pd.DataFrame) -> pd.DataFrame:
     """Per task, fidelity and point: trials, completed, finished cleanly, milestones, TTF, errors (medians
     over the trials: in the span, after it, whole trial, final), compute."""
-    keys = ["task", "fidelity", "samples", "horizon", "interval", "latency"]
+    keys = ["task", "variant", "fidelity", "samples", "horizon", "interval", "latency"]
     rows = []
     for key, g in df.groupby(keys, sort=False):
         reached: dict[str, int] = {}
@@ -99,7 +108,8 @@ def summary(df: pd.DataFrame) -> pd.DataFrame:
             trials=len(g),
             errors=int((g["status"] != "ok").sum()),
             completed=int(g["completed"].sum()),
-            finished_cleanly=int(g["finished_cleanly"].sum()),
+            finished_cleanly=int(g["finished_cleanly"].sum()),  # NaN (unrecorded) counts 0
+            cleanly_known=int(g["finished_cleanly"].notna().sum()),
             milestones=", ".join(f"{k} {v}" for k, v in reached.items()),
             ttf_median=float(pd.to_numeric(g["ttf"], errors="coerce").median()),
             error_span_mm=1e3 * float(pd.to_numeric(g["error_span"], errors="coerce").median()),
@@ -107,27 +117,29 @@ def summary(df: pd.DataFrame) -> pd.DataFrame:
             error_mean_mm=1e3 * float(pd.to_numeric(g["error_mean"], errors="coerce").median()),
             error_final_mm=1e3 * float(pd.to_numeric(g["error_final"], errors="coerce").median()),
             compute_s=float(pd.to_numeric(g["compute"], errors="coerce").median()),
-            cost=steps_per_second(int(key[2]), float(key[3]), float(key[4])),
+            cost=steps_per_second(int(key[3]), float(key[4]), float(key[5])),
         )
         rows.append(row)
     out = pd.DataFrame(rows)
     task_rank = {t: i for i, t in enumerate(ordered(out["task"], TASK_ORDER))}
     fid_rank = {f: i for i, f in enumerate(ordered(out["fidelity"], FIDELITY_ORDER))}
     out["_t"], out["_f"] = out["task"].map(task_rank), out["fidelity"].map(fid_rank)
-    return out.sort_values(["_t", "_f", "cost"]).drop(columns=["_t", "_f"]).reset_index(drop=True)
+    order = ["_t", "variant", "_f", "cost"]
+    return out.sort_values(order).drop(columns=["_t", "_f"]).reset_index(drop=True)
 
 
 def cheapest(table: pd.DataFrame, need: float = 5 / 6) -> pd.DataFrame:
-    """Per task and fidelity, the cheapest point completing at least ``need`` of its trials, next to the
-    paper point's completion (``None`` where no point does)."""
+    """Per task, variant and fidelity, the cheapest point completing at least ``need`` of its trials, next
+    to the paper point's completion (``None`` where no point does)."""
     rows = []
-    for (task, fid), g in table.groupby(["task", "fidelity"], sort=False):
+    for (task, variant, fid), g in table.groupby(["task", "variant", "fidelity"], sort=False):
         works = g[g["completed"] >= np.ceil(need * g["trials"] - 1e-9)]
         paper = g[(g["samples"] == PAPER_POINT[0]) & (g["horizon"] == PAPER_POINT[1])]
         best = works.sort_values("cost").head(1)
         rows.append(
             {
                 "task": task,
+                "variant": variant,
                 "fidelity": fid,
                 "paper_point": "; ".join(
                     f"{1e3 * r.interval:.0f} ms{'' if r.latency else ' (no latency)'}: "
@@ -152,29 +164,38 @@ def label(row) -> str:
 def markdown(table: pd.DataFrame, best: pd.DataFrame) -> str:
     """The map and the cheapest points as markdown tables."""
     lines = [
-        "| task | fidelity | samples x horizon | interval | latency | completed | finished cleanly "
+        "| task | variant | fidelity | samples x horizon | interval | latency | completed | finished cleanly "
         "| milestones | TTF median | object error in span / after span / whole trial / final (mm, median) "
         "| compute per trial (s) | rollout steps per s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table.itertuples():
         lines.append(
-            f"| {r.task} | {r.fidelity} | {r.samples} x {r.horizon:g} s | {1e3 * r.interval:.0f} ms "
-            f"| {1e3 * r.latency:.0f} ms | {r.completed}/{r.trials}"
+            f"| {r.task} | {r.variant} | {r.fidelity} | {r.samples} x {r.horizon:g} s "
+            f"| {1e3 * r.interval:.0f} ms | {1e3 * r.latency:.0f} ms | {r.completed}/{r.trials}"
             + (f" ({r.errors} error)" if r.errors else "")
-            + f" | {r.finished_cleanly}/{r.trials} | {r.milestones} | {_num(r.ttf_median, '{:.2f}')} | "
+            + f" | {_cleanly(r)} | {r.milestones} | {_num(r.ttf_median, '{:.2f}')} | "
             + " / ".join(
                 _num(e, "{:.0f}")
                 for e in (r.error_span_mm, r.error_after_mm, r.error_mean_mm, r.error_final_mm)
             )
             + f" | {_num(r.compute_s, '{:.0f}')} | {r.cost:,.0f} |"
         )
-    lines += ["", "| task | fidelity | paper point(s) | cheapest point that completes | completed |"]
-    lines.append("|---|---|---|---|---|")
+    head = "| task | variant | fidelity | paper point(s) | cheapest point that completes | completed |"
+    lines += ["", head]
+    lines.append("|---|---|---|---|---|---|")
     for r in best.itertuples():
         point, done = r.cheapest or "none", r.completed or "-"
-        lines.append(f"| {r.task} | {r.fidelity} | {r.paper_point} | {point} | {done} |")
+        lines.append(f"| {r.task} | {r.variant} | {r.fidelity} | {r.paper_point or '-'} | {point} | {done} |")
     return "\n".join(lines) + "\n"
+
+
+def _cleanly(row) -> str:
+    """``k/n`` finished cleanly; ``k/m (n - m unrecorded)`` where older records lack the field."""
+    if row.cleanly_known == 0:
+        return "-"
+    missing = row.trials - row.cleanly_known
+    return f"{row.finished_cleanly}/{row.cleanly_known}" + (f" ({missing} unrecorded)" if missing else "")
 
 
 def _num(value: float, fmt: str) -> str:

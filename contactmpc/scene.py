@@ -49,6 +49,8 @@ class SceneIndex:
         hand_vel: (J,) sensordata addresses of the hand joint velocities.
         object_qo: (n_o,) sensordata addresses that read ``q_o`` directly: a free joint's body
             position and quaternion, then articulation angles, in ``q_o`` order.
+        hand_object_contact: (K,) sensordata addresses of the number of hand-object contacts, one
+            per outermost object body.
         object_body_mask: (nbody,) True for the object bodies and their descendants.
         object_geom_mask: (ngeom,) True for geoms that belong to the object (object bodies and
             their descendants).
@@ -71,6 +73,7 @@ class SceneIndex:
     object_joint_pos: np.ndarray
     hand_vel: np.ndarray
     object_qo: np.ndarray
+    hand_object_contact: np.ndarray
     object_body_mask: np.ndarray
     object_geom_mask: np.ndarray
     link_of_geom: np.ndarray
@@ -118,6 +121,15 @@ class SceneIndex:
             ),
             hand_vel=np.concatenate([_sensor_adr(m, f"{n}_vel", 1) for n in hand.joint_names]),
             object_qo=np.concatenate([_sensor_adr(m, name, w) for name, w in qo_sensors]).astype(int),
+            hand_object_contact=np.asarray(
+                [
+                    m.sensor_adr[k]
+                    for k in range(m.nsensor)
+                    if m.sensor_type[k] == mujoco.mjtSensor.mjSENS_CONTACT
+                    and mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SENSOR, k).endswith("_hand_contact")
+                ],
+                dtype=int,
+            ),
             object_body_mask=is_object,
             object_geom_mask=is_object[m.geom_bodyid],
             link_of_geom=link_index[m.geom_bodyid],
@@ -278,6 +290,7 @@ class Scene:
                     objname=joint,
                 )
             task.add_to(self.spec)
+            self._add_hand_object_contact()
             self.plant_model = self._compile(plant_timestep)
             self.planner_model = self._compile(planner_timestep)
             self.planner_options = dict(planner_options or {})
@@ -288,6 +301,27 @@ class Scene:
             msg = " ".join(str(err).split())
             raise SceneError(f"task {task.name!r}: scene failed to compile: {msg}") from err
         self.index = SceneIndex.resolve(self.plant_model, hand, task)
+
+    def _add_hand_object_contact(self) -> None:
+        """One contact sensor per outermost object body (the subtree of the hand's root against the
+        body's subtree, ``data="found"``): the number of hand-object contacts, for the cost's release
+        term. Sensors do not act on the physics."""
+        names = set(self.task.object_bodies)
+        for name in self.task.object_bodies:
+            parent = self.spec.body(name).parent
+            while parent is not None and parent.name not in names and parent.name != "world":
+                parent = parent.parent
+            if parent is not None and parent.name in names:
+                continue  # inside another object body's subtree: counted there
+            self.spec.add_sensor(
+                name=f"{name}_hand_contact",
+                type=mujoco.mjtSensor.mjSENS_CONTACT,
+                objtype=mujoco.mjtObj.mjOBJ_XBODY,
+                objname=self.hand.root_body,
+                reftype=mujoco.mjtObj.mjOBJ_XBODY,
+                refname=name,
+                intprm=[1, 0, 1],  # data: found; reduce: none; num: 1
+            )
 
     def _add_look(self) -> None:
         """Skybox and a checkered floor material (``floor_mat``) that tasks may use."""

@@ -14,6 +14,7 @@ def _record(directory, name, samples, horizon, interval, latency, seed, complete
     config = {
         "planner": {"num_samples": samples, "horizon": horizon, "replan_period": 0.01, "latency": latency},
         "fidelity": fidelities()[fidelity],
+        "seed": seed,
     }
     record = {
         "task": "paper_apple", "seed": seed, "status": "ok", "completed": completed, "ttf": 1.0,

@@ -249,4 +249,86 @@ def test_analysis_reads_records_with_and_without_the_new_fields(tmp_path):
     table = point_summary(load_points(old, new))
     assert table["trials"].tolist() == [4] and table["finished_cleanly"].tolist() == [1]
     assert table["error_span_mm"].iloc[0] == pytest.approx(20.0)  # the median of the records that have it
-    assert "| 1/4 |" in point_markdown(table, table.iloc[:0])
+    assert "| 1/2 (2 unrecorded) |" in point_markdown(table, table.iloc[:0])  # old records: not 0
+
+
+# ------------------------------------------------------------------ the release phase (variant=release)
+def _letting_go(scene, let_go_frame: int = 13):
+    """tests.helpers.static_reference with every contact ended at ``let_go_frame`` (of 26, 1 s)."""
+    from tests.helpers import static_reference
+
+    ref = static_reference(scene, duration=1.0, frames=26)
+    ref.contact_active[let_go_frame:] = False
+    return ref
+
+
+def test_the_release_term_counts_hand_object_contacts_once_the_reference_has_let_go(scene_for):
+    """The scene's hand-object contact sensor counts real MuJoCo contacts (the apple moved onto a finger
+    link: > 0; 1 m away: 0); the cost's release term is lambda_o * release_weight * that count on
+    the steps after the reference's last expected contact, 0 before them and 0 with release_weight 0."""
+    import mujoco
+
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.samplers import PCASplineSpace
+
+    scene = scene_for("apple")
+    m, d = scene.plant_model, mujoco.MjData(scene.plant_model)
+    found = scene.index.hand_object_contact
+    assert len(found) == 1
+    d.qpos[scene.index.object_qpos[:3]] += [1.0, 0.0, 0.0]  # the apple 1 m away from the hand
+    mujoco.mj_forward(m, d)
+    apart = d.sensordata.copy()
+    assert apart[found].sum() == 0
+    link = scene.index.link_bodies[5]
+    d.qpos[scene.index.object_qpos[:3]] = d.xpos[link]  # the apple's centre at a finger link's origin
+    mujoco.mj_forward(m, d)
+    touching = d.sensordata.copy()
+    assert touching[found].sum() >= 1
+
+    ref = _letting_go(scene)
+    cost = TrackingCost(lambda_o=2.0, release_weight=1e-3)
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), cost, horizon=0.2)
+    track = problem.track
+    last = np.flatnonzero(track.contact_active.any(axis=1))[-1]
+    before, after = slice(last - 5, last + 1), slice(last + 1, last + 7)
+    for window, expected in ((before, 0.0), (after, 2.0 * 1e-3 * touching[found].sum())):
+        sd = np.stack([np.tile(touching, (6, 1)), np.tile(apart, (6, 1))])  # (2 samples, 6 steps, nsd)
+        terms = cost(sd, window)
+        np.testing.assert_allclose(terms["release"][0], expected)
+        np.testing.assert_array_equal(terms["release"][1], 0.0)
+    plain = TrackingCost(lambda_o=2.0)
+    Problem.build(scene, ref, PCASplineSpace(0.2), plain, horizon=0.2)
+    assert not plain(np.tile(touching, (1, 6, 1)), after)["release"].any()
+
+
+def test_the_wrist_is_sampled_around_the_last_contact_only_where_the_reference_lets_go(scene_for):
+    """sampler.release_window: wrist noise on the control points around the reference's last expected
+    contact (and, with root_window too, around the first); none where the reference ends held."""
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.samplers import JointSplineSpace
+    from tests.helpers import static_reference
+
+    scene = scene_for("apple")
+    num_root = scene.hand.num_root
+
+    def wrist_sampled(ref, **windows):
+        space = JointSplineSpace(0.2, root_sigma2=1e-4, **windows)
+        problem = Problem.build(scene, ref, space, TrackingCost(), horizon=0.2, num_control_points=12)
+        std = np.broadcast_to(problem.noise_std, (12, problem.theta0.shape[1]))
+        assert np.all(std[:, num_root:] > 0)  # the fingers everywhere
+        return std[:, :num_root].any(axis=1), problem
+
+    ref = _letting_go(scene)  # last contact at frame 12 of 26 (0.48 s), slowed by the task's time_scale
+    sampled, problem = wrist_sampled(ref, release_window=(-0.1, 0.1))
+    last = np.flatnonzero(problem.track.contact_active.any(axis=1))[-1] * problem.track.dt
+    expect = np.zeros(12, bool)
+    expect[problem.spline.window_indices(last - 0.1, 0.2)] = True
+    assert 0 < sampled.sum() < 12 and np.array_equal(sampled, expect)
+    both, _ = wrist_sampled(ref, root_window=(0.0, 0.1), release_window=(-0.1, 0.1))
+    assert both[problem.spline.window_indices(0.0, 0.1)].all() and (both >= sampled).all()
+    held, _ = wrist_sampled(static_reference(scene, duration=1.0, frames=26), release_window=(-0.1, 0.1))
+    assert not held.any()  # the reference never lets go: no release to sample the wrist for
+    with pytest.raises(ValueError, match="release_window"):
+        JointSplineSpace(0.2, release_window=(1.0, 1.0))

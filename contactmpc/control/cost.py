@@ -6,8 +6,11 @@
 
 The object distance is ``|dp|^2 + w_rot * angle^2 + w_art * |d angles|^2``; the contact term sums,
 over the links whose contact is expected at that reference time, the squared world-frame distance
-between the link's contact point and the corresponding point on the object. Every input comes
-from the rollout's ``sensordata``, so no Python runs per simulated step.
+between the link's contact point and the corresponding point on the object. The optional *release*
+term (not the paper's; ``release_weight`` > 0) is the contact term's complement after the reference
+has let go: once the reference's last expected contact has passed, every hand-object contact ``n_c``
+costs as much as ``release_weight`` m^2 of squared object position error. Every input comes from the
+rollout's ``sensordata``, so no Python runs per simulated step.
 """
 
 from __future__ import annotations
@@ -85,6 +88,9 @@ class TrackingCost:
             ``floor(n / 3)`` contacts in their file's order (the partial next one is left out); the
             links they fall on per frame come with the reference (``meta["paper_code_contacts"]``, from
             the importer of the paper's data).
+        release_weight: the release term's weight (m^2 of squared object position error per hand-object
+            contact, so it is weighted by ``lambda_o`` too), on the steps after the reference's last
+            expected contact; 0 (the paper) leaves the hand free to touch the object there.
 
     The authors' weights (``task_template.xml``: object position 1000, orientation 10, contact 5000,
     hand velocity 1, each ``0.5 w |r|^2``) are ``lambda_o = 500``, ``rotation_weight = 0.01``,
@@ -92,7 +98,7 @@ class TrackingCost:
     residual (``mju_subQuat``) is the rotation vector, so ``|r|^2`` is the squared angle, as ours.
     """
 
-    terms = ("object", "contact", "velocity")
+    terms = ("object", "contact", "velocity", "release")
 
     @checked
     def __init__(
@@ -104,7 +110,9 @@ class TrackingCost:
         articulation_weight: Annotated[float, Ge(0)] = 1.0,
         velocity_joints: Annotated[str, OneOf("all", "fingers")] = "all",
         contact_subset: Annotated[str, OneOf("expected", "authors_code")] = "expected",
+        release_weight: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
+        self.release_weight = float(release_weight)
         self.lambda_o = float(lambda_o)
         self.lambda_c = float(lambda_c)
         self.lambda_v = float(lambda_v)
@@ -129,6 +137,11 @@ class TrackingCost:
         vel = scene.index.hand_vel
         self._vel = as_index(vel[scene.hand.num_root :] if self.velocity_joints == "fingers" else vel)
         self._active = track.contact_active
+        expected = np.flatnonzero(track.contact_active.any(axis=1))
+        self._release = np.zeros(len(track.contact_active), bool)  # (N,) after the last expected contact
+        if expected.size:
+            self._release[expected[-1] + 1 :] = True
+        self._found = scene.index.hand_object_contact
         if self.contact_subset == "authors_code":
             links = None if reference is None else reference.meta.get("paper_code_contacts")
             if links is None:
@@ -196,8 +209,13 @@ class TrackingCost:
         v = sensordata[..., self._vel]
         vel = np.einsum("shi,shi->sh", v, v)
         con = self.contact_term(sensordata, window) if self.lambda_c > 0.0 else np.zeros_like(obj)
+        release = np.zeros_like(obj)
+        if self.release_weight > 0.0:
+            found = sensordata[..., self._found].sum(axis=-1)
+            release = self.lambda_o * self.release_weight * found * self._release[window]
         return {
             "object": self.lambda_o * obj,
             "contact": self.lambda_c * con,
             "velocity": self.lambda_v * vel,
+            "release": release,
         }

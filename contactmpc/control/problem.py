@@ -34,7 +34,7 @@ class Problem:
         theta0: (M, d) the reference's own control points in the space's coordinates.
         duration: control time a trial simulates (s).
         noise_std: (d,) the sampling noise per column of ``theta``, or (M, d) per control point (a
-            space with a ``root_window``); ``None``: the space's ``noise_std``.
+            space with a ``root_window`` or ``release_window``); ``None``: the space's ``noise_std``.
     """
 
     scene: Scene
@@ -84,6 +84,9 @@ class Problem:
         cost.bind(scene, track, reference)
         expected = np.flatnonzero(track.contact_active.any(axis=1))
         first_contact = float(expected[0] * track.dt) if expected.size else None
+        # the reference lets go where its track ends without contact (else there is no release)
+        lets_go = expected.size and expected[-1] < len(track.contact_active) - 1
+        last_contact = float(expected[-1] * track.dt) if lets_go else None
         return cls(
             scene=scene,
             track=track,
@@ -92,5 +95,5 @@ class Problem:
             cost=cost,
             theta0=theta0,
             duration=float(track.duration if duration is None else duration),
-            noise_std=space.point_noise_std(spline, first_contact),
+            noise_std=space.point_noise_std(spline, first_contact, last_contact),
         )

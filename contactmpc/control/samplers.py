@@ -26,6 +26,15 @@ from contactmpc.reference.pca import PCABasis, PCACurves
 from contactmpc.validate import ConfigError, Ge, OneOf, checked
 
 
+def _window(name: str, window: tuple[float, float] | None) -> tuple[float, float] | None:
+    """``(start, end)`` as floats, or ``None``; refused unless start < end."""
+    if window is None:
+        return None
+    if len(window) != 2 or not window[0] < window[1]:
+        raise ConfigError(f"sampler.{name} must be (start, end) with start < end, got {window}")
+    return float(window[0]), float(window[1])
+
+
 class SplineSpace:
     """Base class: B-spline control points of root + finger coordinates.
 
@@ -41,6 +50,11 @@ class SplineSpace:
             only on the control points whose support meets that interval (the paper's future work:
             the wrist free while contact is being acquired, the reference's afterwards); ``None``: on
             every control point.
+        release_window: ``(start, end)`` seconds relative to the *last* expected contact: sample the
+            wrist on the control points whose support meets that interval too (the hand may move
+            around the object it lets go of instead of sweeping it along the reference's retreat);
+            ``None``: only ``root_window``'s. With ``release_window`` alone the wrist is sampled only
+            there.
     """
 
     @checked
@@ -52,10 +66,10 @@ class SplineSpace:
         num_components: Annotated[int, Ge(1)] | None = None,
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
+        release_window: tuple[float, float] | None = None,
     ) -> None:
-        if root_window is not None and not root_window[0] < root_window[1]:
-            raise ConfigError(f"sampler.root_window must be (start, end) with start < end, got {root_window}")
-        self.root_window = None if root_window is None else (float(root_window[0]), float(root_window[1]))
+        self.root_window = _window("root_window", root_window)
+        self.release_window = _window("release_window", release_window)
         self.sigma2 = float(sigma2)
         self.root_sigma2 = float(root_sigma2)
         self.root_rotation_sigma2 = None if root_rotation_sigma2 is None else float(root_rotation_sigma2)
@@ -118,18 +132,22 @@ class SplineSpace:
             std[3 : self.num_root] = np.sqrt(self.root_rotation_sigma2)
         return std
 
-    def point_noise_std(self, spline: UniformBSpline, first_contact: float | None) -> np.ndarray:
-        """The noise per control point: :attr:`noise_std` (d,), or with ``root_window`` an (M, d) array
-        whose root columns are 0 on the control points that do not touch the window around
-        ``first_contact`` (s, control time; ``None``: no contact expected, the wrist is never sampled)."""
+    def point_noise_std(
+        self, spline: UniformBSpline, first_contact: float | None, last_contact: float | None = None
+    ) -> np.ndarray:
+        """The noise per control point: :attr:`noise_std` (d,), or with ``root_window`` or
+        ``release_window`` an (M, d) array whose root columns are 0 on the control points that touch
+        neither the root window around ``first_contact`` nor the release window around
+        ``last_contact`` (s, control time; ``None``: no contact expected, the wrist is never sampled)."""
         std = self.noise_std
-        if self.root_window is None:
+        if self.root_window is None and self.release_window is None:
             return std
         out = np.tile(std, (spline.num_control_points, 1))
         keep = np.zeros(spline.num_control_points, bool)
-        if first_contact is not None:
-            start, end = (first_contact + w for w in self.root_window)
-            keep[spline.window_indices(start, end - start)] = True
+        for window, at in ((self.root_window, first_contact), (self.release_window, last_contact)):
+            if window is not None and at is not None:
+                start, end = (at + w for w in window)
+                keep[spline.window_indices(start, end - start)] = True
         out[~keep, : self.num_root] = 0.0
         return out
 
@@ -188,8 +206,8 @@ class PCASplineSpace(SplineSpace):
         frozen_components: the first this many PCs get no noise. The authors' code lays its noise out
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
-        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window: see
-            :class:`SplineSpace`.
+        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
+            release_window: see :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -205,8 +223,11 @@ class PCASplineSpace(SplineSpace):
         frozen_components: Annotated[int, Ge(0)] = 0,
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
+        release_window: tuple[float, float] | None = None,
     ) -> None:
-        super().__init__(sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window)
+        super().__init__(
+            sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window, release_window
+        )
         self.basis = basis
         self.frozen_components = int(frozen_components)
 
