@@ -412,3 +412,26 @@ def test_a_records_variant_label_names_its_variant(tmp_path):
     write_json(tmp_path / "f0" / "trial.json", make_record("apple", "full", 0, 1.0))
     df = load_records(tmp_path)
     assert sorted(df["variant"]) == ["full", "wrist_acquire", "wrist_acquire"]
+
+
+def test_mann_whitney_is_exact_with_and_without_ties_and_six_seeds_can_pass_holm_over_eight():
+    """No ties: scipy's exact U distribution; ties (every completed trial has TTF 1): the exact
+    permutation distribution, which for fully separated 6 vs 6 samples is 2 / C(12, 6) either way; 6
+    seeds per cell can then pass Holm over 8 tests at 0.05 and 5 cannot. The Hodges-Lehmann shift is
+    the median pairwise difference."""
+    from math import comb
+
+    from analysis.report import hodges_lehmann, mann_whitney
+
+    low = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    u, p, method = mann_whitney(low + 0.55, low)
+    assert method == "exact" and u == 36 and p == pytest.approx(2 / comb(12, 6))
+    u, p, method = mann_whitney(np.ones(6), low)
+    assert method == "exact permutation" and u == 36 and p == pytest.approx(2 / comb(12, 6))
+    assert 8 * p < 0.05 and 8 * mann_whitney(np.ones(5), low[:5])[1] > 0.05
+    _, p_same, _ = mann_whitney(np.ones(6), np.ones(6))
+    assert p_same == pytest.approx(1.0)
+    tied = np.append(low, 1.0)
+    assert mann_whitney(np.ones(1), tied)[2] == "normal"  # ties and one value: no permutation test
+    assert hodges_lehmann(np.ones(6), low) == pytest.approx(np.median(1 - low))
+    assert hodges_lehmann(low, low) == pytest.approx(0.0)
