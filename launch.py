@@ -39,7 +39,19 @@ from sweep_summary import SWEEP_STATE_ENV  # noqa: E402  (also registers the saf
 
 CONF_DIR = Path(__file__).resolve().parent / "conf"
 
-LABELS = ("task", "hand", "cost", "sampler", "planner", "variant", "preset", "experiment", "perturbation")
+LABELS = (
+    "task",
+    "hand",
+    "cost",
+    "sampler",
+    "planner",
+    "variant",
+    "preset",
+    "experiment",
+    "perturbation",
+    "operating_point",
+    "challenge",
+)
 
 log = logging.getLogger("contactmpc")
 
