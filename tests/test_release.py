@@ -17,6 +17,7 @@ from analysis.operating_point import load as load_points
 from analysis.operating_point import markdown as point_markdown
 from analysis.operating_point import summary as point_summary
 from analysis.paper_fig3 import fidelities
+from analysis.paper_fig3 import load as fig3_load
 from analysis.paper_fig3 import markdown as fig3_markdown
 from analysis.report import markdown_report, summary_table
 from contactmpc.jobs.trial import summarize
@@ -332,3 +333,23 @@ def test_the_wrist_is_sampled_around_the_last_contact_only_where_the_reference_l
     assert not held.any()  # the reference never lets go: no release to sample the wrist for
     with pytest.raises(ValueError, match="release_window"):
         JointSplineSpace(0.2, release_window=(1.0, 1.0))
+
+
+def test_release_table_counts_the_end_of_each_variant(tmp_path):
+    """analysis.release: per task x variant x fidelity the counts of completed, settled and finished
+    cleanly, and the median errors over the span, after it and at the end."""
+    from analysis.release import main, markdown, release_table
+
+    for seed in range(3):
+        settled = seed > 0
+        _write(tmp_path, f"full{seed}", _record(seed, new=True))
+        after = _record(seed, new=True, variant="release", settled=settled, finished_cleanly=settled)
+        after.update(object_position_error_after_mean=0.01 * (seed + 1), final_object_position_error=0.02)
+        after["config"]["cost"] = {"release_weight": 1e-3}
+        _write(tmp_path, f"release{seed}", after)
+    table = release_table(fig3_load(tmp_path)).set_index("variant")
+    assert table.loc["full", "finished_cleanly"] == 0 and table.loc["release", "finished_cleanly"] == 2
+    assert table.loc["release", "error_after"] == pytest.approx(0.02)
+    assert table.loc["full", "error_after"] == pytest.approx(0.9)
+    assert "| apple | release | paper | 3 | 3/3 | 2/3 | 2/3 | 20 / 20 / 20 mm |" in markdown(table.reset_index())
+    assert main([str(tmp_path)]) == 0 and main([str(tmp_path / "missing")]) == 2

@@ -1,0 +1,116 @@
+"""The end of a task, per task, variant and fidelity: is the object left where the reference leaves it?
+
+Reads trial records (:func:`analysis.paper_fig3.load`: the fidelity from each config, the task without its
+``paper_`` prefix) and counts, per task x variant x fidelity: trials, completed, *settled* (the final
+milestone: at rest where the reference leaves it, let go where the reference lets go) and *finished
+cleanly* (both); and gives the median object error after the contact span (release and retreat) and at
+the end of the trial, next to the median over the span (tracking). The error is the free body's position
+(mm) where the task has one, else the norm of its articulations (mrad, or mm for a slide: the doorknobs).
+
+Command line::
+
+    python -m analysis.release SWEEP_DIR [SWEEP_DIR ...] [--out FILE.md]
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis._cli import fail, sweep_parser
+from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered
+from analysis.paper_fig3 import FIDELITY_ORDER
+from analysis.paper_fig3 import load as fig3_load
+
+#: Which error a task's table shows: the free body's position, or (no free body) its articulations.
+ERRORS = {"position": "object_position_error", "articulation": "object_articulation_error"}
+
+
+def error_kind(df: pd.DataFrame) -> str:
+    """``position`` where the trials' position errors are not all zero, else ``articulation``."""
+    pos = pd.to_numeric(df.get("object_position_error_mean"), errors="coerce").abs()
+    return "position" if (pos > 1e-9).any() else "articulation"
+
+
+def release_table(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per task x variant x fidelity: ``n`` (ok trials), ``completed``, ``settled``,
+    ``finished_cleanly`` (counts; NaN-valued fields count as not reached), ``error`` (its kind), and the
+    medians ``error_span``, ``error_after``, ``error_final`` (m or rad)."""
+    good = ok_trials(df)
+    rows = []
+    for task in ordered(good["task"], TASK_ORDER):
+        at = good[good["task"] == task]
+        kind = error_kind(at)
+        col = ERRORS[kind]
+        for variant in ordered(at["variant"], VARIANT_ORDER):
+            for fid in ordered(at.loc[at["variant"] == variant, "fidelity"], FIDELITY_ORDER):
+                g = at[(at["variant"] == variant) & (at["fidelity"] == fid)]
+
+                def median(name: str, g=g) -> float:
+                    values = pd.to_numeric(g[name], errors="coerce") if name in g else pd.Series([])
+                    return float(values.median()) if values.notna().any() else math.nan
+
+                def count(name: str, g=g) -> int:
+                    return int(g[name].fillna(False).astype(bool).sum()) if name in g else 0
+
+                rows.append(
+                    {
+                        "task": task,
+                        "variant": variant,
+                        "fidelity": fid,
+                        "n": len(g),
+                        "completed": count("completed"),
+                        "settled": count("settled"),
+                        "finished_cleanly": count("finished_cleanly"),
+                        "error": kind,
+                        "error_span": median(f"{col}_span_mean"),
+                        "error_after": median(f"{col}_after_mean"),
+                        "error_final": median(f"final_{col}"),
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """The table as markdown (errors in mm, or mrad for an articulation)."""
+    lines = [
+        "| task | variant | fidelity | n | completed | settled | finished cleanly "
+        "| object error: span / after span / final (median) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in table.itertuples(index=False):
+        unit = "mm" if r.error == "position" else "x 1e-3 (rad, or m for a slide)"
+        errs = " / ".join(_milli(e) for e in (r.error_span, r.error_after, r.error_final))
+        lines.append(
+            f"| {r.task} | {r.variant} | {r.fidelity} | {r.n} | {r.completed}/{r.n} | {r.settled}/{r.n} "
+            f"| {r.finished_cleanly}/{r.n} | {errs} {unit} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _milli(value: float) -> str:
+    return "—" if not np.isfinite(value) else f"{1e3 * value:.0f}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = sweep_parser("python -m analysis.release", __doc__.split("\n\n")[0])
+    parser.add_argument("--out", help="also write the table to this markdown file")
+    args = parser.parse_args(argv)
+    try:
+        for d in args.sweep_dirs:
+            if not Path(d).is_dir():
+                raise FileNotFoundError(f"no such sweep directory: {d}")
+        text = markdown(release_table(fig3_load(*args.sweep_dirs)))
+        if args.out:
+            Path(args.out).write_text(text)
+    except (ValueError, OSError) as err:
+        return fail(err)
+    print(text, end="")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
