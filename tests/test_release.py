@@ -354,3 +354,30 @@ def test_release_table_counts_the_end_of_each_variant(tmp_path):
     row = "| apple | release | paper | 3 | 3/3 | 2/3 | 2/3 | 20 / 20 / 20 mm |"
     assert row in markdown(table.reset_index())
     assert main([str(tmp_path)]) == 0 and main([str(tmp_path / "missing")]) == 2
+
+
+def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
+    """sampler.release_pause: the root curves stop at the last contact for the pause and go on that much
+    later; the fingers keep the reference's schedule; no pause where the reference ends held."""
+    from contactmpc.control.samplers import JointSplineSpace, paused
+    from contactmpc.reference.bspline import UniformBSpline
+
+    t = np.linspace(0.0, 10.0, 101)
+    x = np.stack([t, t**2], axis=-1)
+    y = paused(t, x, at=4.0, pause=1.5)
+    np.testing.assert_array_equal(y[t <= 4.0], x[t <= 4.0])
+    np.testing.assert_allclose(y[(t >= 4.0) & (t <= 5.5)], np.tile(x[40], (16, 1)))
+    np.testing.assert_allclose(y[t >= 5.5], np.stack([t - 1.5, (t - 1.5) ** 2], -1)[t >= 5.5], atol=0.01)
+    qpos = np.concatenate([np.tile(x[:, :1], (1, 6)), np.sin(t)[:, None] * np.ones((1, 4))], axis=1)
+    spline = UniformBSpline(40, (0.0, 10.0))
+    ranges = np.tile([-100.0, 100.0], (10, 1))
+    space = JointSplineSpace(0.2, release_pause=1.5)
+    held = space.fit(spline, t, qpos, ranges, 6)  # no last contact: the reference as it is
+    np.testing.assert_allclose(held, JointSplineSpace(0.2).fit(spline, t, qpos, ranges, 6))
+    theta = space.fit(spline, t, qpos, ranges, 6, last_contact=4.0)
+    curve = spline.basis(t) @ theta
+    np.testing.assert_allclose(curve[:, 6:], spline.basis(t) @ held[:, 6:])  # the fingers unchanged
+    mid = (t > 4.3) & (t < 5.2)
+    np.testing.assert_allclose(curve[mid, 0], 4.0, atol=0.05)  # the wrist waits at its pose at 4 s
+    late = t > 6.0
+    np.testing.assert_allclose(curve[late, 0], t[late] - 1.5, atol=0.05)

@@ -78,15 +78,21 @@ class Problem:
             )
         spline = UniformBSpline(int(num_control_points), (0.0, track.duration))
         ranges = scene.plant_model.actuator_ctrlrange[scene.index.actuators]
-        theta0 = space.fit(
-            spline, track.hand_times, reference.hand_qpos, ranges, scene.hand.num_root, meta=reference.meta
-        )
-        cost.bind(scene, track, reference)
         expected = np.flatnonzero(track.contact_active.any(axis=1))
         first_contact = float(expected[0] * track.dt) if expected.size else None
         # the reference lets go where its track ends without contact (else there is no release)
         lets_go = expected.size and expected[-1] < len(track.contact_active) - 1
         last_contact = float(expected[-1] * track.dt) if lets_go else None
+        theta0 = space.fit(
+            spline,
+            track.hand_times,
+            reference.hand_qpos,
+            ranges,
+            scene.hand.num_root,
+            meta=reference.meta,
+            last_contact=last_contact,
+        )
+        cost.bind(scene, track, reference)
         return cls(
             scene=scene,
             track=track,

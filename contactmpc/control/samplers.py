@@ -35,6 +35,24 @@ def _window(name: str, window: tuple[float, float] | None) -> tuple[float, float
     return float(window[0]), float(window[1])
 
 
+def paused(times: np.ndarray, curves: np.ndarray, at: float, pause: float) -> np.ndarray:
+    """Curves that stop at time ``at`` for ``pause`` seconds and then go on as before, that much later.
+
+    Args:
+        times: (T,) increasing sample times (s).
+        curves: (T, k) values at those times.
+        at: when to stop (s).
+        pause: how long (s).
+
+    Returns:
+        (T, k): ``curves(t)`` before ``at``, ``curves(at)`` on ``[at, at + pause]``, ``curves(t - pause)``
+        after (linear interpolation between samples); the last ``pause`` seconds of the curves are cut.
+    """
+    times = np.asarray(times, float)
+    source = np.where(times <= at, times, np.maximum(at, times - pause))
+    return np.stack([np.interp(source, times, c) for c in np.asarray(curves, float).T], axis=-1)
+
+
 class SplineSpace:
     """Base class: B-spline control points of root + finger coordinates.
 
@@ -55,6 +73,10 @@ class SplineSpace:
             around the object it lets go of instead of sweeping it along the reference's retreat);
             ``None``: only ``root_window``'s. With ``release_window`` alone the wrist is sampled only
             there.
+        release_pause: seconds (control time) the nominal wrist waits at its pose of the reference's
+            last expected contact before it follows the reference's retreat (the rest of the retreat
+            that much later), while the fingers open on the reference's schedule: open, then withdraw.
+            0 (the paper): the reference's wrist as it is. Only where the reference lets go.
     """
 
     @checked
@@ -67,7 +89,9 @@ class SplineSpace:
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
         release_window: tuple[float, float] | None = None,
+        release_pause: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
+        self.release_pause = float(release_pause)
         self.root_window = _window("root_window", root_window)
         self.release_window = _window("release_window", release_window)
         self.sigma2 = float(sigma2)
@@ -88,6 +112,7 @@ class SplineSpace:
         ranges: np.ndarray,
         num_root: int,
         meta: dict | None = None,
+        last_contact: float | None = None,
     ) -> np.ndarray:
         """Fit the space to the reference and return the nominal control points.
 
@@ -99,6 +124,8 @@ class SplineSpace:
             num_root: number of root (wrist) DOFs, the first columns of ``hand_qpos``.
             meta: the reference's ``meta`` (a space may take more than the curves from it, e.g. the
                 PCA that came with the paper's data).
+            last_contact: control time (s) of the reference's last expected contact where it lets go
+                (``None``: it ends held); with ``release_pause`` the wrist waits there.
 
         Returns:
             (M, d) nominal control points ``theta``.
@@ -107,7 +134,10 @@ class SplineSpace:
         self.ranges = np.asarray(ranges, float)
         self.num_root = int(num_root)
         self.num_fingers = hand_qpos.shape[1] - self.num_root
-        root_cp = spline.fit(times, hand_qpos[:, : self.num_root])
+        root = hand_qpos[:, : self.num_root]
+        if self.release_pause > 0.0 and last_contact is not None:
+            root = paused(times, root, last_contact, self.release_pause)
+        root_cp = spline.fit(times, root)
         finger_cp = self._fit_fingers(spline, times, hand_qpos[:, self.num_root :])
         return np.concatenate([root_cp, finger_cp], axis=-1)
 
@@ -207,7 +237,7 @@ class PCASplineSpace(SplineSpace):
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
-            release_window: see :class:`SplineSpace`.
+            release_window, release_pause: see :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -224,9 +254,17 @@ class PCASplineSpace(SplineSpace):
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
         release_window: tuple[float, float] | None = None,
+        release_pause: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         super().__init__(
-            sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window, release_window
+            sigma2,
+            root_sigma2,
+            whiten,
+            num_components,
+            root_rotation_sigma2,
+            root_window,
+            release_window,
+            release_pause,
         )
         self.basis = basis
         self.frozen_components = int(frozen_components)
