@@ -381,3 +381,16 @@ def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
     np.testing.assert_allclose(curve[mid, 0], 4.0, atol=0.05)  # the wrist waits at its pose at 4 s
     late = t > 6.0
     np.testing.assert_allclose(curve[late, 0], t[late] - 1.5, atol=0.05)
+
+
+def test_the_nominal_fingers_open_to_the_first_pose_after_the_last_contact():
+    """sampler.release_open: from the last contact the fingers go linearly back to the reference's first
+    pose within the given time and stay there; before it, the reference's fingers."""
+    from contactmpc.control.samplers import opened
+
+    t = np.linspace(0.0, 10.0, 101)
+    x = np.stack([1.0 + t, np.cos(t)], axis=-1)
+    y = opened(t, x, at=4.0, duration=1.0)
+    np.testing.assert_array_equal(y[t <= 4.0], x[t <= 4.0])
+    np.testing.assert_allclose(y[t >= 5.0], np.tile(x[0], ((t >= 5.0).sum(), 1)))
+    np.testing.assert_allclose(y[45], 0.5 * x[40] + 0.5 * x[0])  # half way at 4.5 s

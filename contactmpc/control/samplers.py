@@ -53,6 +53,27 @@ def paused(times: np.ndarray, curves: np.ndarray, at: float, pause: float) -> np
     return np.stack([np.interp(source, times, c) for c in np.asarray(curves, float).T], axis=-1)
 
 
+def opened(times: np.ndarray, curves: np.ndarray, at: float, duration: float) -> np.ndarray:
+    """Curves that leave their course at time ``at`` and go, linearly over ``duration`` seconds, to their
+    first sample's values, and stay there.
+
+    Args:
+        times: (T,) increasing sample times (s).
+        curves: (T, k) values at those times.
+        at: when to leave (s).
+        duration: how long the way back takes (s).
+
+    Returns:
+        (T, k) curves.
+    """
+    curves = np.asarray(curves, float)
+    times = np.asarray(times, float)
+    start = np.array([np.interp(at, times, c) for c in curves.T])
+    w = np.clip((times - at) / duration, 0.0, 1.0)[:, None]
+    out = (1.0 - w) * start + w * curves[0]
+    return np.where((times > at)[:, None], out, curves)
+
+
 class SplineSpace:
     """Base class: B-spline control points of root + finger coordinates.
 
@@ -77,6 +98,10 @@ class SplineSpace:
             last expected contact before it follows the reference's retreat (the rest of the retreat
             that much later), while the fingers open on the reference's schedule: open, then withdraw.
             0 (the paper): the reference's wrist as it is. Only where the reference lets go.
+        release_open: seconds (control time) over which the nominal fingers go, from the reference's
+            pose at the last expected contact, to the reference's first pose (the open hand of the
+            approach), and stay there; 0 (the paper): the reference's fingers. Only where the
+            reference lets go.
     """
 
     @checked
@@ -90,8 +115,10 @@ class SplineSpace:
         root_window: tuple[float, float] | None = None,
         release_window: tuple[float, float] | None = None,
         release_pause: Annotated[float, Ge(0)] = 0.0,
+        release_open: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         self.release_pause = float(release_pause)
+        self.release_open = float(release_open)
         self.root_window = _window("root_window", root_window)
         self.release_window = _window("release_window", release_window)
         self.sigma2 = float(sigma2)
@@ -138,7 +165,10 @@ class SplineSpace:
         if self.release_pause > 0.0 and last_contact is not None:
             root = paused(times, root, last_contact, self.release_pause)
         root_cp = spline.fit(times, root)
-        finger_cp = self._fit_fingers(spline, times, hand_qpos[:, self.num_root :])
+        fingers = hand_qpos[:, self.num_root :]
+        if self.release_open > 0.0 and last_contact is not None:
+            fingers = opened(times, fingers, last_contact, self.release_open)
+        finger_cp = self._fit_fingers(spline, times, fingers)
         return np.concatenate([root_cp, finger_cp], axis=-1)
 
     def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
@@ -237,7 +267,7 @@ class PCASplineSpace(SplineSpace):
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
-            release_window, release_pause: see :class:`SplineSpace`.
+            release_window, release_pause, release_open: see :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -255,6 +285,7 @@ class PCASplineSpace(SplineSpace):
         root_window: tuple[float, float] | None = None,
         release_window: tuple[float, float] | None = None,
         release_pause: Annotated[float, Ge(0)] = 0.0,
+        release_open: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         super().__init__(
             sigma2,
@@ -265,6 +296,7 @@ class PCASplineSpace(SplineSpace):
             root_window,
             release_window,
             release_pause,
+            release_open,
         )
         self.basis = basis
         self.frozen_components = int(frozen_components)
