@@ -21,6 +21,7 @@ Command line::
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -53,8 +54,13 @@ def load(*dirs: str | Path) -> pd.DataFrame:
         values = df[name] if name in df else pd.Series(np.nan, index=df.index)
         return pd.to_numeric(values, errors="coerce").where(ok)
 
-    interval = column("replan_interval").fillna(df["replan_period"])
-    latency = column("latency").fillna(0.0)
+    # a record that did not finish (diverged, error) has no replan_interval / latency: its config's
+    planner = [_planner(path) for path in df["record_path"]]
+    fixed = pd.Series([p.get("latency") or 0.0 for p in planner], index=df.index, dtype=float)
+    recorded = pd.to_numeric(df.get("latency", pd.Series(np.nan, index=df.index)), errors="coerce")
+    latency = recorded.fillna(fixed)
+    interval = pd.to_numeric(df.get("replan_interval"), errors="coerce")
+    interval = interval.fillna(np.maximum(df["replan_period"].astype(float), latency))
     clean = df["finished_cleanly"] if "finished_cleanly" in df else pd.Series(None, index=df.index)
     milestones = [c for c in df.columns if c.startswith("milestone_")]
     cpu = column("cpu_seconds") if "cpu_seconds" in df else pd.Series(np.nan, index=df.index)
@@ -70,8 +76,8 @@ def load(*dirs: str | Path) -> pd.DataFrame:
             "seed": df["seed"],
             "status": df["status"],
             "completed": df["completed"].fillna(False).astype(bool) & ok,
-            "finished_cleanly": [
-                (bool(c) if ok_ else False) if isinstance(c, bool | np.bool_) else np.nan
+            "finished_cleanly": [  # NaN: an ok record from before the field existed
+                False if not ok_ else bool(c) if isinstance(c, bool | np.bool_) else np.nan
                 for c, ok_ in zip(clean, ok, strict=True)
             ],
             "ttf": column("ttf"),
@@ -86,6 +92,14 @@ def load(*dirs: str | Path) -> pd.DataFrame:
             ],
         }
     )
+
+
+def _planner(path: str) -> dict:
+    """The ``config.planner`` node of the record at ``path`` (``{}`` where it has none)."""
+    try:
+        return (json.loads(Path(path).read_text()).get("config") or {}).get("planner") or {}
+    except (OSError, ValueError):
+        return {}
 
 
 def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: float = 0.01) -> float:
@@ -173,7 +187,7 @@ def markdown(table: pd.DataFrame, best: pd.DataFrame) -> str:
         lines.append(
             f"| {r.task} | {r.variant} | {r.fidelity} | {r.samples} x {r.horizon:g} s "
             f"| {1e3 * r.interval:.0f} ms | {1e3 * r.latency:.0f} ms | {r.completed}/{r.trials}"
-            + (f" ({r.errors} error)" if r.errors else "")
+            + (f" ({r.errors} diverged or failed)" if r.errors else "")
             + f" | {_cleanly(r)} | {r.milestones} | {_num(r.ttf_median, '{:.2f}')} | "
             + " / ".join(
                 _num(e, "{:.0f}")
