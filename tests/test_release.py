@@ -394,3 +394,26 @@ def test_the_nominal_fingers_open_to_the_first_pose_after_the_last_contact():
     np.testing.assert_array_equal(y[t <= 4.0], x[t <= 4.0])
     np.testing.assert_allclose(y[t >= 5.0], np.tile(x[0], ((t >= 5.0).sum(), 1)))
     np.testing.assert_allclose(y[45], 0.5 * x[40] + 0.5 * x[0])  # half way at 4.5 s
+
+
+def test_opening_the_nominal_fingers_keeps_the_reference_s_pca():
+    """With release_open the PC space is still fitted to the reference's own finger curves (a PCA that
+    also saw the opened nominal would change the sampling directions over the whole trial); only the
+    nominal's control points after the last contact move."""
+    from contactmpc.control.samplers import PCASplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    t = np.linspace(0.0, 10.0, 201)
+    rng = np.random.default_rng(0)
+    fingers = np.sin(np.outer(t, rng.uniform(0.2, 1.0, 16)) + rng.uniform(0, 3, 16))
+    qpos = np.concatenate([np.zeros((len(t), 6)), fingers], axis=1)
+    spline, ranges = UniformBSpline(30, (0.0, 10.0)), np.tile([-10.0, 10.0], (22, 1))
+    plain, opening = PCASplineSpace(0.2), PCASplineSpace(0.2, release_open=1.0)
+    a = plain.fit(spline, t, qpos, ranges, 6)
+    b = opening.fit(spline, t, qpos, ranges, 6, last_contact=6.0)
+    np.testing.assert_allclose(opening.pca.components, plain.pca.components)
+    early = spline.basis(t[t < 4.0])
+    # the nominal before the release: moved only by the least-squares fit's coupling of control points
+    np.testing.assert_allclose(early @ b, early @ a, atol=0.01)
+    late = opening.finger_joints((spline.basis(t[t > 7.5]) @ b)[:, 6:])
+    np.testing.assert_allclose(late, np.tile(fingers[0], (len(late), 1)), atol=0.05)  # opened to frame 0

@@ -167,11 +167,19 @@ class SplineSpace:
         root_cp = spline.fit(times, root)
         fingers = hand_qpos[:, self.num_root :]
         if self.release_open > 0.0 and last_contact is not None:
-            fingers = opened(times, fingers, last_contact, self.release_open)
-        finger_cp = self._fit_fingers(spline, times, fingers)
+            # the nominal opens; the space (a PCA) stays the reference's own
+            finger_cp = self._fit_fingers(
+                spline, times, opened(times, fingers, last_contact, self.release_open), fingers
+            )
+        else:
+            finger_cp = self._fit_fingers(spline, times, fingers)
         return np.concatenate([root_cp, finger_cp], axis=-1)
 
-    def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+    def _fit_fingers(
+        self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray, space: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(M, d - num_root) finger control points of the curves ``fingers`` (T, F), in the coordinates
+        fitted to ``space`` (T, F; ``None``: to ``fingers`` themselves)."""
         raise NotImplementedError
 
     def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
@@ -241,7 +249,9 @@ class SplineSpace:
 class JointSplineSpace(SplineSpace):
     """Finger control points in joint space (the paper's ablation, sigma^2 = 60 deg per DOF)."""
 
-    def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+    def _fit_fingers(
+        self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray, space: np.ndarray | None = None
+    ) -> np.ndarray:
         return spline.fit(times, fingers)
 
     def finger_joints(self, finger_theta: np.ndarray) -> np.ndarray:
@@ -307,14 +317,19 @@ class PCASplineSpace(SplineSpace):
         std[self.num_root : self.num_root + self.frozen_components] = 0.0
         return std
 
-    def _fit_fingers(self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+    def _fit_fingers(
+        self, spline: UniformBSpline, times: np.ndarray, fingers: np.ndarray, space: np.ndarray | None = None
+    ) -> np.ndarray:
         if self.basis != "fit":
-            self.pca = self._reference_basis(fingers)
+            self.pca = self._reference_basis(fingers if space is None else space)
             return spline.fit(times, self.pca.to_pc(fingers))
         # PC-curves fitted with the same M (paper §II-A).
-        curves = PCACurves.fit(spline, times, fingers, num_components=self.num_components, whiten=self.whiten)
+        base = fingers if space is None else space
+        curves = PCACurves.fit(spline, times, base, num_components=self.num_components, whiten=self.whiten)
         self.pca = curves.pca
-        return curves.pc_control_points
+        if space is None:
+            return curves.pc_control_points
+        return spline.fit(times, self.pca.to_pc(fingers))
 
     def _reference_basis(self, fingers: np.ndarray) -> PCABasis:
         given = self.meta.get("paper_pca")
