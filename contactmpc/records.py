@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import platform
 import secrets
 import subprocess
 from importlib import metadata
@@ -95,6 +96,23 @@ def versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[name] = None
     return out
+
+
+def cpu_model() -> str:
+    """The processor's model name (``/proc/cpuinfo``'s ``model name``; else :func:`platform.processor`),
+    so that timings from different machines are never mixed."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return " ".join(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
+def machine() -> dict[str, object]:
+    """Where a record was made: the CPU model, its logical CPUs, and the operating system."""
+    return {"cpu": cpu_model(), "logical_cpus": os.cpu_count(), "system": platform.platform(terse=True)}
 
 
 def git_revision(cwd: str | Path | None = None) -> str | None:

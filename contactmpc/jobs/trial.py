@@ -20,6 +20,7 @@ from contactmpc.records import (
     RECORD_NAME,
     SERIES_NAME,
     git_revision,
+    machine,
     one_line,
     versions,
     write_json,
@@ -110,6 +111,8 @@ def run_trial(
             progress,
             perturbation,
         )
+        engine = getattr(planner, "engine", None)  # rollout threads (None: a planner without rollouts)
+        record["threads"] = None if engine is None else engine.nthread
         loop0, cpu0 = time.perf_counter(), time.process_time()
         try:
             log = trial.run()
@@ -187,6 +190,8 @@ def _new_record(seed: int, labels: dict | None) -> dict:
     record: dict = {"schema": 1, **(labels or {}), "seed": int(seed), "status": "running"}
     record["versions"] = versions()
     record["git_revision"] = git_revision()
+    host = machine()
+    record["cpu"], record["logical_cpus"] = host["cpu"], host["logical_cpus"]
     return record
 
 
