@@ -434,9 +434,15 @@ def groups(df: pd.DataFrame) -> list[tuple[str, str, str]]:
     ]
 
 
+#: Statuses whose records count for TTF, completion and errors when they have a TTF: a finished trial,
+#: and one whose plant diverged (measured on what it logged; a divergence inside the contact span is its
+#: failure, :func:`contactmpc.jobs.trial.summarize`; diverged records from before that have no TTF).
+COUNTED_STATUSES: tuple[str, ...] = ("ok", "diverged")
+
+
 def ok_trials(df: pd.DataFrame) -> pd.DataFrame:
-    """The rows whose ``status`` is ``ok`` and that have a TTF: the only ones that count for TTF."""
-    return df[(df["status"] == "ok") & df["ttf"].notna()]
+    """The rows that count for TTF: status in :data:`COUNTED_STATUSES`, with a TTF."""
+    return df[df["status"].isin(COUNTED_STATUSES) & df["ttf"].notna()]
 
 
 def write_table(df: pd.DataFrame, path: str | Path) -> Path:

@@ -23,7 +23,16 @@ from matplotlib.patches import Patch
 from matplotlib.transforms import blended_transform_factory
 
 from analysis._cli import sweep_parser
-from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, conditions, groups, ok_trials, ordered, run_records
+from analysis.aggregate import (
+    COUNTED_STATUSES,
+    TASK_ORDER,
+    VARIANT_ORDER,
+    conditions,
+    groups,
+    ok_trials,
+    ordered,
+    run_records,
+)
 
 #: Colours of the paper's variants (Fig. 3); other variants get shades of grey.
 VARIANT_COLORS: dict[str, str] = {"full": "#2ca02c", "no_contact": "#1f77b4", "joint_space": "#d62728"}
@@ -57,12 +66,15 @@ def series_label(variant: str, condition: str) -> str:
 
 
 def excluded_note(df: pd.DataFrame) -> str:
-    """One line naming the trials that do not count for TTF (status not ``ok``), counted per
-    task/variant (and condition)."""
-    bad = df[df["status"] != "ok"]
-    missing = df[(df["status"] == "ok") & df["ttf"].isna()]
+    """One line naming the trials that do not count for TTF (status not in
+    :data:`~analysis.aggregate.COUNTED_STATUSES`, or without a TTF), counted per task/variant (and
+    condition)."""
+    counted = df["status"].isin(COUNTED_STATUSES)
+    bad = df[~counted]
+    missing = df[counted & df["ttf"].isna()]
     if not len(bad) and not len(missing):
-        return f"All {len(df)} trials have status ok."
+        diverged = int((df["status"] == "diverged").sum())
+        return f"All {len(df)} trials count" + (f" ({diverged} diverged)." if diverged else ".")
     parts = []
     for task, variant, condition in groups(df):
         counts = bad.loc[_in(bad, task, variant, condition), "status"].fillna("no status").value_counts()
@@ -70,7 +82,7 @@ def excluded_note(df: pd.DataFrame) -> str:
             what = ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
             parts.append(f"{task}/{variant}{f' [{condition}]' if condition else ''}: {what}")
     if len(missing):
-        parts.append(f"{len(missing)} ok without TTF")
+        parts.append(f"{len(missing)} without TTF")
     return f"Not counted for TTF ({len(bad) + len(missing)} of {len(df)} trials): " + "; ".join(parts)
 
 

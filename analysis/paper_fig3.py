@@ -146,6 +146,7 @@ def markdown(df: pd.DataFrame) -> str:
     ]
     for r in summary.itertuples(index=False):
         done = f"{round(r.completion_rate * r.n)}/{r.n}" if r.n else "0/0"
+        done += f" ({r.diverged} diverged)" if r.diverged else ""
         rate = r.finished_cleanly_rate
         clean = f"{round(rate * r.n)}/{r.n}" if np.isfinite(rate) else "—"
         ttf = f"{100 * r.ttf_median:.1f} ({100 * r.ttf_q25:.1f}–{100 * r.ttf_q75:.1f})" if r.n else "—"

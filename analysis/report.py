@@ -53,7 +53,8 @@ def _in(df: pd.DataFrame, task: str, variant: str, condition: str) -> pd.Series:
 def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     """Statistics per task, variant and condition.
 
-    TTF, completion and tracking error are over the trials with status ``ok`` (and a TTF) only. The
+    TTF, completion and tracking error are over the trials that count
+    (:func:`analysis.aggregate.ok_trials`: status ``ok``, or ``diverged`` with a TTF) only. The
     tracking error is the object's position error over the contact span, where the reference asks the
     hand to do the task; after the span and over the whole trial are columns of their own. Records
     written before the span errors and ``finished_cleanly`` existed give NaN there.
@@ -64,7 +65,8 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     Returns:
         One row per (task, variant, condition) in paper order, columns ``task``, ``variant``,
         ``condition`` (the config values that set it apart, empty for a variant run under one
-        condition), ``trials`` (all records), ``n`` (status ok), ``errors`` (status not ok),
+        condition), ``trials`` (all records), ``n`` (those that count), ``errors`` (the others),
+        ``diverged`` (counted trials whose plant diverged),
         ``completion_rate`` (mean of ``completed`` where recorded, NaN if never),
         ``finished_cleanly_rate`` (the same of ``finished_cleanly``: completed, and the object left at
         rest where the reference leaves it), ``ttf_median``, ``ttf_q25``, ``ttf_q75`` (fractions of the
@@ -87,7 +89,8 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
                 "condition": condition,
                 "trials": int(sel.sum()),
                 "n": len(g),
-                "errors": int((df.loc[sel, "status"] != "ok").sum()),
+                "errors": int(sel.sum()) - len(g),
+                "diverged": int((g["status"] == "diverged").sum()),
                 "completion_rate": float(completed.astype(float).mean()) if len(completed) else math.nan,
                 "finished_cleanly_rate": float(clean.astype(float).mean()) if len(clean) else math.nan,
                 "ttf_median": float(np.median(ttf)) if len(ttf) else math.nan,
@@ -105,6 +108,7 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
             "trials",
             "n",
             "errors",
+            "diverged",
             "completion_rate",
             "finished_cleanly_rate",
             "ttf_median",
@@ -354,8 +358,9 @@ def markdown_report(
     lines += [
         "",
         "TTF is the time to failure as a percentage of the span between the first and last expected contact;",
-        "`n` counts the trials with status ok (only they count for TTF, completion and error), `errors` the",
-        "others (error, diverged, unfinished). Completion is the rate of the task's own success predicate,",
+        "`n` counts the trials that count for TTF, completion and error (status ok, or diverged with a TTF:",
+        "a plant that diverged inside the contact span failed there), `errors` the others (error, older",
+        "diverged records, unfinished). Completion is the rate of the task's own success predicate,",
         "where recorded: TTF overestimates success (paper §III). *Finished cleanly*: completed, and at the",
         "end the object at rest where the reference leaves it, let go where the reference lets go. Object",
         "position errors are means over trials of each trial's mean: over the contact span (the tracking",

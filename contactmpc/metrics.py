@@ -85,6 +85,42 @@ def time_to_failure(
     return TTFResult(ttf, True, failure, (float(first), float(last)))
 
 
+def time_to_failure_cut_short(
+    time: np.ndarray,
+    contacts: np.ndarray,
+    expected: np.ndarray,
+    trial_time: np.ndarray,
+    trial_expected: np.ndarray,
+    end: float,
+    gap: float = 0.3,
+    min_expected: int = 6,
+) -> TTFResult:
+    """TTF of a trial cut short at ``end`` (its plant diverged): the failure rule on what was logged,
+    against the contact span of the **whole** trial; a trial cut short inside that span fails at ``end``
+    unless the rule fired earlier, one cut short after the span keeps what its log says.
+
+    Args:
+        time, contacts, expected: the log up to ``end`` ((N,), (N, L), (N, L)), as :func:`time_to_failure`.
+        trial_time: (M,) the instants the whole trial would have logged (M >= N).
+        trial_expected: (M, L) bool, the links expected in contact at those instants.
+        end: the instant the trial was cut short (s).
+        gap, min_expected: the failure rule, as :func:`time_to_failure`.
+
+    Returns:
+        The :class:`TTFResult`, its span the whole trial's.
+    """
+    whole = time_to_failure(trial_time, np.zeros_like(trial_expected, bool), trial_expected, np.inf, 0)
+    if whole.span is None:  # no contact expected in the whole trial
+        return whole
+    first, last = whole.span
+    logged = time_to_failure(time, contacts, expected, gap, min_expected) if len(time) else whole
+    failure = logged.failure_time if logged.failed else (float(end) if end < last else None)
+    if failure is None:
+        return TTFResult(1.0, False, None, whole.span)
+    ttf = 1.0 if last <= first else float(np.clip((failure - first) / (last - first), 0.0, 1.0))
+    return TTFResult(ttf, True, failure, whole.span)
+
+
 def errors_by_window(
     time: np.ndarray, errors: dict[str, np.ndarray], span: tuple[float, float] | None
 ) -> dict[str, float | None]:

@@ -33,7 +33,17 @@ TIMING_TOLERANCE = 1e-9  # s: how far a period may be from a whole number of pla
 
 
 class PlantDiverged(RuntimeError):
-    """The plant simulation went unstable (MuJoCo warning or non-finite state)."""
+    """The plant simulation went unstable (MuJoCo warning or non-finite state).
+
+    Attributes:
+        time: the control time of the last replan before it went unstable (s), or ``None``.
+        log: the trial's log up to that replan (set by :meth:`Trial.run`), or ``None``.
+    """
+
+    def __init__(self, message: str, time: float | None = None) -> None:
+        super().__init__(message)
+        self.time = time
+        self.log: TrialLog | None = None
 
 
 @dataclass
@@ -213,9 +223,20 @@ class Trial:
                     self.step_plant(m, d, draw, targets[j], t + j * dt, t + (j + 1) * dt)
                 self.check_plant(d, t, (k + min(per_plan, n_steps - k)) * dt)
                 bar.update(min(per_plan, n_steps - k))
+        except PlantDiverged as err:
+            err.log = log  # what happened until then, for the record
+            raise
         finally:
             bar.close()
         return log
+
+    def expected_log(self) -> tuple[np.ndarray, np.ndarray]:
+        """The instants the whole trial logs (one per replan) and the links expected in contact there:
+        ``(time (N,), expected_contacts (N, L))``, as :meth:`run`'s log has them."""
+        dt = self.scene.plant_model.opt.timestep
+        per_plan = int(round(self.replan_interval / dt))
+        time = np.arange(0, int(round(self.duration / dt)), per_plan) * dt
+        return time, self.track.contact_active[[self.track.index(t) for t in time]]
 
     # --- the plant, shared with the wall-clock loop (contactmpc.online) -------------------------
     def start_plant(self) -> tuple[PerturbationDraw, np.random.Generator, mujoco.MjModel, mujoco.MjData]:
@@ -263,7 +284,7 @@ class Trial:
         (a MuJoCo warning or a non-finite configuration; 1 us)."""
         if d.warning.number.any() or not np.isfinite(d.qpos).all():
             # MuJoCo resets a diverged plant (d.time restarts): name the control time
-            raise PlantDiverged(f"plant diverged between t={t0:.3f}s and t={t1:.3f}s")
+            raise PlantDiverged(f"plant diverged between t={t0:.3f}s and t={t1:.3f}s", t0)
 
     def _log(self, log: TrialLog, d: mujoco.MjData, t: float, target: np.ndarray, info) -> None:
         scene, tr = self.scene, self.track

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactmpc.metrics import time_to_failure
+from contactmpc.metrics import time_to_failure, time_to_failure_cut_short
 from contactmpc.tasks import BottleTask
 from contactmpc.tasks.base import sustained
 
@@ -122,3 +122,26 @@ def test_a_milestone_counts_only_while_held_and_for_the_hold_time():
     task, qo, expected, held, t = _bottle_log(held=True, dwell=2)  # passes through in 0.05 s
     assert task.milestones(qo, expected, held, t, hold=0.3)["poured"] is False
     assert task.milestones(qo, expected, held, t, hold=0.0)["poured"] is True
+
+
+def test_a_trial_cut_short_fails_where_it_stopped_inside_the_span_only():
+    t, c, e = log(duration=2.0)  # touching throughout, 8 expected from 0 to 2 s
+    cut = t <= 1.2
+    r = time_to_failure_cut_short(t[cut], c[cut], e[cut], t, e, 1.2)
+    assert (r.failed, r.failure_time, r.span) == (True, 1.2, (0.0, pytest.approx(2.0)))
+    assert r.ttf == pytest.approx(0.6)
+    e_after = e.copy()
+    e_after[t > 1.0] = False  # the span ends at 1 s: a cut at 1.2 s comes after it
+    r = time_to_failure_cut_short(t[cut], c[cut], e_after[cut], t, e_after, 1.2)
+    assert (r.ttf, r.failed, r.failure_time) == (1.0, False, None)
+    c_lost = c.copy()
+    c_lost[500:] = False  # contact lost at 0.5 s: the rule fires before the cut, its time stands
+    r = time_to_failure_cut_short(t[cut], c_lost[cut], e[cut], t, e, 1.2)
+    assert (r.failed, r.failure_time) == (True, pytest.approx(0.5)) and r.ttf == pytest.approx(0.25)
+    early = t <= 0.1  # cut before any contact is expected: TTF 0
+    late = e.copy()
+    late[t < 0.5] = False
+    r = time_to_failure_cut_short(t[early], c[early], late[early], t, late, 0.1)
+    assert (r.ttf, r.failed, r.failure_time) == (0.0, True, 0.1)
+    none = np.zeros_like(e)
+    assert time_to_failure_cut_short(t[cut], c[cut], none[cut], t, none, 1.2).ttf is None

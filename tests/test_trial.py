@@ -15,7 +15,7 @@ from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners import PredictiveSampling
 from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.reference import source
-from contactmpc.trial import Trial
+from contactmpc.trial import PlantDiverged, Trial
 from tests.conftest import REPO_ROOT, TASKS, build_scene, compose_config
 from tests.helpers import static_reference
 
@@ -207,3 +207,24 @@ def test_benchmark_times_states_a_trial_visits(reference_files, tmp_path, visit,
         assert "| apple | contact |" in out and "largest difference of a CPU-time ratio: 0.0 %" in out
         assert benchmarks_main([str(tmp_path / "nothing")]) == 2
         assert "no benchmark.json under" in capsys.readouterr().err
+
+
+def test_a_plant_that_diverges_inside_the_span_fails_there(tmp_path):
+    """A real divergence (a 1e7 N s push on the apple): the record keeps what the trial logged until then,
+    its TTF against the whole trial's span, failed no later than the divergence, never settled."""
+    scene = build_scene(("task=apple",))
+    path = static_reference(scene, duration=1.0).save(tmp_path / "apple.npz")  # 8 links expected throughout
+    overrides = ["task=apple", f"task.reference_path={path}", *TINY, "duration=1.0", "job.progress=false"]
+    overrides += ["perturbation=pushes", "perturbation.pushes=1", "perturbation.push_impulse=1e7", "seed=0"]
+    with pytest.raises(PlantDiverged):
+        run_job(overrides, tmp_path / "run")
+    record = json.loads((tmp_path / "run" / "trial.json").read_text())
+    assert record["status"] == "diverged" and record["error"].startswith("PlantDiverged: plant diverged")
+    end, (first, last) = record["diverged_time"], (record["contact_span_start"], record["contact_span_end"])
+    assert (first, last) == (0.0, pytest.approx(0.95))  # the whole trial's span, not the log's
+    assert first < end < last and record["simulated_seconds"] == end
+    assert record["failed"] and record["failure_time"] <= end + 1e-9
+    assert record["ttf"] == pytest.approx((record["failure_time"] - first) / (last - first))
+    assert record["settled"] is False and record["finished_cleanly"] is False
+    series = np.load(tmp_path / "run" / "timeseries.npz")
+    assert series["time"][-1] == pytest.approx(end) and len(series["time"]) == record["num_plans"]

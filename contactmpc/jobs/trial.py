@@ -14,7 +14,7 @@ import numpy as np
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
 from contactmpc.control.samplers import SplineSpace
-from contactmpc.metrics import errors_by_window, time_to_failure
+from contactmpc.metrics import errors_by_window, time_to_failure, time_to_failure_cut_short
 from contactmpc.perturbations import Perturbation
 from contactmpc.records import (
     RECORD_NAME,
@@ -134,6 +134,16 @@ def run_trial(
                 render_trial_video(scene, series, trial.track, out / f"trial.{video}", speed=video_speed)
             )
     except (Exception, KeyboardInterrupt) as err:
+        if isinstance(err, PlantDiverged) and err.log is not None and err.log.arrays():
+            # what the trial did until its plant went unstable: a failure there if inside the span
+            series = err.log.arrays()
+            wall = time.perf_counter() - loop0
+            record.update(
+                summarize(series, trial, wall, failure_gap, failure_min_expected, milestone_hold, err.time)
+            )
+            record["cpu_seconds"] = time.process_time() - cpu0
+            record["diverged_time"] = err.time
+            write_series(out / SERIES_NAME, series)
         _write_failure(out, record, err, time.perf_counter() - wall0, config)
         raise
     record["config"] = config
@@ -206,17 +216,44 @@ def _write_failure(
     return write_json(out / RECORD_NAME, record)
 
 
-def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected: int, hold: float) -> dict:
-    """Flat summary fields of a finished trial's log (``hold``: see ``milestone_hold``).
+def summarize(
+    series: dict,
+    trial: Trial,
+    wall: float,
+    gap: float,
+    min_expected: int,
+    hold: float,
+    diverged_time: float | None = None,
+) -> dict:
+    """Flat summary fields of a trial's log (``hold``: see ``milestone_hold``).
 
     ``completed`` is every milestone of :meth:`~contactmpc.tasks.base.Task.milestones`; ``settled`` is
     the final milestone (:meth:`~contactmpc.tasks.base.Task.settled`: the trial ends as the reference
     ends, the object at rest at its final pose and let go where the reference lets go), kept out of
     ``milestone_*`` and of ``completed``; ``finished_cleanly`` is both.
+
+    A trial whose plant diverged (``diverged_time``: the control time of its last replan, its log ends
+    there) is measured on what it logged: its TTF against the whole trial's contact span, failed at
+    ``diverged_time`` if that is inside the span and the rule did not fire earlier
+    (:func:`~contactmpc.metrics.time_to_failure_cut_short`); the milestones it reached until then; never
+    ``settled`` (it did not end as the reference ends).
     """
-    ttf = time_to_failure(series["time"], series["contacts"], series["expected_contacts"], gap, min_expected)
+    if diverged_time is None:
+        ttf = time_to_failure(
+            series["time"], series["contacts"], series["expected_contacts"], gap, min_expected
+        )
+    else:
+        ttf = time_to_failure_cut_short(
+            series["time"],
+            series["contacts"],
+            series["expected_contacts"],
+            *trial.expected_log(),
+            diverged_time,
+            gap,
+            min_expected,
+        )
     plan = series["plan_seconds"]
-    sim = float(trial.duration)
+    sim = float(trial.duration) if diverged_time is None else float(diverged_time)
     final_err = trial.scene.task.layout.error(series["object_qpos"][-1], trial.track.object_qpos[-1])
     task = trial.scene.task
     expected = series["expected_object_qpos"]
@@ -224,9 +261,11 @@ def summarize(series: dict, trial: Trial, wall: float, gap: float, min_expected:
     milestones = task.milestones(series["object_qpos"], expected, held, series["time"], hold)
     completed = all(milestones.values())
     let_go = not bool(trial.track.contact_active[-1].any())  # the reference ends without contact
-    settled = task.settled(
-        series["object_qpos"], trial.track.object_qpos[-1], held, series["time"], hold, let_go
-    )
+    settled = None
+    if diverged_time is None:
+        settled = task.settled(
+            series["object_qpos"], trial.track.object_qpos[-1], held, series["time"], hold, let_go
+        )
     names = ("object_position_error", "object_rotation_error", "object_articulation_error")
     windows = errors_by_window(series["time"], {k: series[k] for k in names}, ttf.span)
     return {
