@@ -3,9 +3,9 @@
 Reads the records of a sweep such as ``experiment=fig3_paper_lite`` and tells each trial's *fidelity*
 from its config (the ``fidelity`` node, matched against the members of ``conf/fidelity/``); the fidelity
 becomes the trials' ``condition``, so the tables and tests of :mod:`analysis.report` keep the two readings
-apart (a variant is compared with ``full`` under the same fidelity; Holm's correction runs over every test
-of both). Task names lose their ``paper_`` prefix so that they sort as in the paper (doorknob, apple,
-bottle, stapler).
+apart (a variant is compared with ``full`` under the same fidelity; Holm's correction runs over the tests
+of each fidelity: each reading is its own experiment). Task names lose their ``paper_`` prefix so that
+they sort as in the paper (doorknob, apple, bottle, stapler).
 
 Outputs (:func:`write_fig3`): ``fig3_fidelities.png`` (one panel per fidelity, same axes, the paper's
 colours, each box labelled with its completion count), ``fig3_summary.csv`` and ``fig3_tests.csv``
@@ -138,7 +138,7 @@ def markdown(df: pd.DataFrame) -> str:
     object's position error over the contact span, after it and over the whole trial, errors) and the
     tests."""
     summary = _in_order(summary_table(df), "condition")
-    tests = _in_order(significance_tests(df), "condition")
+    tests = _in_order(significance_tests(df, family="condition", same_condition=True), "condition")
     lines = [
         "| task | variant | fidelity | completed | finished cleanly | median TTF % (IQR) "
         "| object error in span / after span / whole trial (mm) | errors |",
@@ -158,8 +158,9 @@ def markdown(df: pd.DataFrame) -> str:
     lines += [
         "",
         "Mann–Whitney U (two-sided) of TTF, `full` against each ablation, per task and fidelity (Holm over "
-        "all; *test*: exact where the samples have no ties, else the exact permutation distribution, else "
-        "the normal approximation; effect sizes: P(full > ablation) = U / nm, the common-language effect "
+        "the tests of each fidelity, each reading its own experiment; *test*: exact where the samples "
+        "have no ties, else the exact permutation distribution, else the normal approximation; effect "
+        "sizes: P(full > ablation) = U / nm, the common-language effect "
         "size, and the Hodges–Lehmann shift, the median of the pairwise TTF differences):",
         "",
         "| task | fidelity | ablation | n | median full / ablation % | U | p | Holm p "
@@ -199,7 +200,9 @@ def write_fig3(df: pd.DataFrame, out_dir: str | Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     fig3(df, out / "fig3_fidelities.png")
     _in_order(summary_table(df), "condition").to_csv(out / "fig3_summary.csv", index=False)
-    _in_order(significance_tests(df), "condition").to_csv(out / "fig3_tests.csv", index=False)
+    _in_order(significance_tests(df, family="condition", same_condition=True), "condition").to_csv(
+        out / "fig3_tests.csv", index=False
+    )
     (out / "fig3.md").write_text(markdown(df))
     return out
 

@@ -133,22 +133,30 @@ def holm(p: Sequence[float]) -> np.ndarray:
 
 
 def significance_tests(
-    df: pd.DataFrame, reference: str = REFERENCE_VARIANT, alpha: float = 0.05
+    df: pd.DataFrame,
+    reference: str = REFERENCE_VARIANT,
+    alpha: float = 0.05,
+    family: str | None = None,
+    same_condition: bool = False,
 ) -> pd.DataFrame:
     """Two-sided Mann–Whitney U tests of TTF: ``reference`` against every other variant, per task.
 
     Trials run under different conditions (see :func:`analysis.aggregate.add_conditions`) are not
     pooled: a condition of the reference is tested against the same condition of the other variant,
     and against the other variant's only condition where that variant was run under one (and the
-    other way round). Only trials with status ``ok`` count. ``U`` is the statistic of the reference
-    sample, so ``prob_superiority`` = U / (n_ref n_other) estimates P(TTF_ref > TTF_other) + ½ P(tie).
-    ``p_holm`` is Holm-adjusted over all the tests of the table; the ``reading`` uses it at level
-    ``alpha``.
+    other way round). Only the trials that count (:func:`analysis.aggregate.ok_trials`) do. ``U`` is the
+    statistic of the reference sample, so ``prob_superiority`` = U / (n_ref n_other) estimates
+    P(TTF_ref > TTF_other) + ½ P(tie). ``p_holm`` is Holm-adjusted over all the tests of the table, or
+    over each ``family``; the ``reading`` uses it at level ``alpha``.
 
     Args:
         df: the table of :func:`analysis.aggregate.load_records`.
         reference: the variant the others are compared with.
         alpha: significance level of the reading.
+        family: a column of the result (e.g. ``"condition"``) whose values are separate families for
+            Holm's correction (each experiment its own); ``None``: one family, every test.
+        same_condition: test only a condition against the same condition (never a variant's only
+            condition against another one of the reference, e.g. two readings of the method).
 
     Returns:
         One row per (task, other variant, pair of conditions) with columns ``task``, ``reference``,
@@ -166,6 +174,7 @@ def significance_tests(
         for ref_condition, condition in _paired(
             conditions(df, task, reference), conditions(df, task, variant)
         )
+        if ref_condition == condition or not same_condition
     ]
     rows = []
     for task, ref_condition, variant, condition in pairs:
@@ -211,7 +220,10 @@ def significance_tests(
         "reading",
     ]
     out = pd.DataFrame(rows, columns=columns)
-    out["p_holm"] = holm(out["p"]) if len(out) else []
+    if family is None:
+        out["p_holm"] = holm(out["p"]) if len(out) else []
+    else:
+        out["p_holm"] = out.groupby(family, sort=False)["p"].transform(lambda p: holm(p.to_numpy()))
     out["reading"] = [_reading(r, alpha) for r in out.itertuples(index=False)]
     return out
 

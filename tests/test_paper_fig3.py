@@ -116,3 +116,18 @@ def test_notebook_runs_on_the_sweep(which: str, sweep: Path, tmp_path: Path) -> 
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
     assert any(o.get("output_type") == "display_data" and "image/png" in o.get("data", {}) for o in outputs)
     assert not [o for o in outputs if o.get("output_type") == "error"]
+
+
+def test_each_reading_is_its_own_family_and_never_tested_against_the_other(sweep: Path) -> None:
+    from analysis.report import holm, significance_tests
+
+    df = load(sweep)
+    tests = significance_tests(df, family="condition", same_condition=True)
+    for fid, group in tests.groupby("condition"):
+        assert len(group) == 8, fid  # 4 tasks x 2 ablations
+        assert list(group["p_holm"]) == list(holm(group["p"].to_numpy()))
+    # a reading missing a cell (authors_code apple no_contact) is not tested against the other reading
+    gone = (df["fidelity"] == "authors_code") & (df["task"] == "apple") & (df["variant"] == "no_contact")
+    partial = df[~gone]
+    tests = significance_tests(partial, family="condition", same_condition=True)
+    assert (tests["reference_condition"] == tests["condition"]).all() and len(tests) == 15
