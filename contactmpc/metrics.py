@@ -59,12 +59,10 @@ def time_to_failure(
     time = np.asarray(time, float)
     touching = np.asarray(contacts, bool).any(axis=-1)
     n_expected = np.asarray(expected, bool).sum(axis=-1)
-    any_expected = n_expected > 0
-    if not any_expected.any():
-        end = float(time[-1]) if len(time) else 0.0
-        note = f"no contact was expected during the trial (0 to {end:.3f} s): it ended before the span starts"
-        return TTFResult(None, False, None, None, note)
-    first, last = time[np.argmax(any_expected)], time[len(time) - 1 - np.argmax(any_expected[::-1])]
+    span = contact_span(time, expected)
+    if span is None:
+        return _nothing_expected(time)
+    first, last = span
     eligible = ~touching & (n_expected > min_expected)
     start = None
     failure = None
@@ -79,10 +77,24 @@ def time_to_failure(
         else:
             start = None
     if failure is None:
-        return TTFResult(1.0, False, None, (float(first), float(last)))
-    span = last - first
-    ttf = 1.0 if span <= 0 else float(np.clip((failure - first) / span, 0.0, 1.0))
-    return TTFResult(ttf, True, failure, (float(first), float(last)))
+        return TTFResult(1.0, False, None, span)
+    ttf = 1.0 if last <= first else float(np.clip((failure - first) / (last - first), 0.0, 1.0))
+    return TTFResult(ttf, True, failure, span)
+
+
+def contact_span(time: np.ndarray, expected: np.ndarray) -> tuple[float, float] | None:
+    """The first and the last of ``time`` (N,) at which ``expected`` (N, L) has any contact, or ``None``."""
+    any_expected = np.asarray(expected, bool).any(axis=-1)
+    if not any_expected.any():
+        return None
+    return float(time[np.argmax(any_expected)]), float(time[len(time) - 1 - np.argmax(any_expected[::-1])])
+
+
+def _nothing_expected(time: np.ndarray) -> TTFResult:
+    """The TTF of a log ending at ``time[-1]`` during which no contact was expected: none, and why."""
+    end = float(time[-1]) if len(time) else 0.0
+    note = f"no contact was expected during the trial (0 to {end:.3f} s): it ended before the span starts"
+    return TTFResult(None, False, None, None, note)
 
 
 def time_to_failure_cut_short(
@@ -109,16 +121,16 @@ def time_to_failure_cut_short(
     Returns:
         The :class:`TTFResult`, its span the whole trial's.
     """
-    whole = time_to_failure(trial_time, np.zeros_like(trial_expected, bool), trial_expected, np.inf, 0)
-    if whole.span is None:  # no contact expected in the whole trial
-        return whole
-    first, last = whole.span
-    logged = time_to_failure(time, contacts, expected, gap, min_expected) if len(time) else whole
-    failure = logged.failure_time if logged.failed else (float(end) if end < last else None)
+    span = contact_span(trial_time, trial_expected)
+    if span is None:  # no contact expected in the whole trial
+        return _nothing_expected(np.asarray(trial_time, float))
+    first, last = span
+    logged = time_to_failure(time, contacts, expected, gap, min_expected) if len(time) else None
+    failure = logged.failure_time if logged and logged.failed else (float(end) if end < last else None)
     if failure is None:
-        return TTFResult(1.0, False, None, whole.span)
+        return TTFResult(1.0, False, None, span)
     ttf = 1.0 if last <= first else float(np.clip((failure - first) / (last - first), 0.0, 1.0))
-    return TTFResult(ttf, True, failure, whole.span)
+    return TTFResult(ttf, True, failure, span)
 
 
 def errors_by_window(

@@ -111,8 +111,8 @@ def cpu_model() -> str:
 
 
 def machine() -> dict[str, object]:
-    """Where a record was made: the CPU model, its logical CPUs, and the operating system."""
-    return {"cpu": cpu_model(), "logical_cpus": os.cpu_count(), "system": platform.platform(terse=True)}
+    """Where a record was made, as its fields: ``cpu`` (the model) and ``logical_cpus``."""
+    return {"cpu": cpu_model(), "logical_cpus": os.cpu_count()}
 
 
 def git_revision(cwd: str | Path | None = None) -> str | None:

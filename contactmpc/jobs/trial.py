@@ -134,7 +134,7 @@ def run_trial(
                 render_trial_video(scene, series, trial.track, out / f"trial.{video}", speed=video_speed)
             )
     except (Exception, KeyboardInterrupt) as err:
-        if isinstance(err, PlantDiverged) and err.log is not None and err.log.arrays():
+        if isinstance(err, PlantDiverged) and err.log is not None and err.log.columns:
             # what the trial did until its plant went unstable: a failure there if inside the span
             series = err.log.arrays()
             wall = time.perf_counter() - loop0
@@ -200,8 +200,7 @@ def _new_record(seed: int, labels: dict | None) -> dict:
     record: dict = {"schema": 1, **(labels or {}), "seed": int(seed), "status": "running"}
     record["versions"] = versions()
     record["git_revision"] = git_revision()
-    host = machine()
-    record["cpu"], record["logical_cpus"] = host["cpu"], host["logical_cpus"]
+    record.update(machine())
     return record
 
 
