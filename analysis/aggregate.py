@@ -440,6 +440,24 @@ def groups(df: pd.DataFrame) -> list[tuple[str, str, str]]:
 COUNTED_STATUSES: tuple[str, ...] = ("ok", "diverged")
 
 
+def select(df: pd.DataFrame, **keep: str | None) -> pd.DataFrame:
+    """The rows of ``df`` whose columns have one of the comma-separated values given per column
+    (``select(df, task="apple,bottle")``); ``None`` keeps every value of that column. A value that no
+    row has raises ``ValueError`` naming it, so a misspelt filter does not silently empty the table."""
+    for column, values in keep.items():
+        if values is None:
+            continue
+        wanted = [v.strip() for v in values.split(",") if v.strip()]
+        have = set(df[column].astype(str)) if column in df else set()
+        missing = [v for v in wanted if v not in have]
+        if missing:
+            raise ValueError(
+                f"--{column} {', '.join(missing)}: no such {column} in the records ({sorted(have)})"
+            )
+        df = df[df[column].astype(str).isin(wanted)]
+    return df
+
+
 def ok_trials(df: pd.DataFrame) -> pd.DataFrame:
     """The rows that count for TTF: status in :data:`COUNTED_STATUSES`, with a TTF."""
     return df[df["status"].isin(COUNTED_STATUSES) & df["ttf"].notna()]

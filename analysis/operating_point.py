@@ -17,6 +17,10 @@ Outputs (:func:`write_operating_point`): ``operating_point.csv`` and ``operating
 Command line::
 
     python -m analysis.operating_point SWEEP_DIR [SWEEP_DIR ...] [--out-dir DIR] [--need 5/6]
+        [--task apple,stapler] [--variant full,wrist_acquire] [--fidelity paper]
+
+``--task``, ``--variant`` and ``--fidelity`` keep only those rows (comma-separated, the task without its
+``paper_`` prefix): e.g. ``results/fig3_paper``'s full-method apple and bottle beside the map's sweep.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from analysis._cli import fail, sweep_parser
-from analysis.aggregate import TASK_ORDER, ordered
+from analysis.aggregate import TASK_ORDER, ordered, select
 from analysis.paper_fig3 import FIDELITY_ORDER
 from analysis.paper_fig3 import load as fig3_load
 
@@ -199,7 +203,8 @@ def markdown(table: pd.DataFrame, best: pd.DataFrame) -> str:
     lines += ["", head]
     lines.append("|---|---|---|---|---|---|")
     for r in best.itertuples():
-        point, done = r.cheapest or "none", r.completed or "-"
+        point = r.cheapest if isinstance(r.cheapest, str) else "none of these"  # None, or NaN in a frame
+        done = r.completed if isinstance(r.completed, str) else "-"
         lines.append(f"| {r.task} | {r.variant} | {r.fidelity} | {r.paper_point or '-'} | {point} | {done} |")
     return "\n".join(lines) + "\n"
 
@@ -231,13 +236,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = sweep_parser("python -m analysis.operating_point", __doc__.split("\n\n")[0])
     parser.add_argument("--out-dir", help="where to write (default: <first SWEEP_DIR>/analysis)")
     parser.add_argument("--need", default="5/6", help="share of trials a point must complete (a/b)")
+    for column in ("task", "variant", "fidelity"):
+        parser.add_argument(f"--{column}", help=f"keep only these {column}s (comma-separated)")
     args = parser.parse_args(argv)
     try:
         num, _, den = args.need.partition("/")
         need = float(num) / float(den or 1)
-        path = write_operating_point(
-            load(*args.sweep_dirs), args.out_dir or Path(args.sweep_dirs[0]) / "analysis", need
-        )
+        df = select(load(*args.sweep_dirs), task=args.task, variant=args.variant, fidelity=args.fidelity)
+        path = write_operating_point(df, args.out_dir or Path(args.sweep_dirs[0]) / "analysis", need)
     except (ValueError, OSError) as err:
         return fail(err)
     print(path.read_text(), end="")

@@ -9,7 +9,12 @@ the end of the trial, next to the median over the span (tracking). The error is 
 
 Command line::
 
-    python -m analysis.release SWEEP_DIR [SWEEP_DIR ...] [--out FILE.md]
+    python -m analysis.release SWEEP_DIR [SWEEP_DIR ...] [--task apple,bottle] [--variant full,release_reset]
+        [--fidelity paper] [--out FILE.md]
+
+``--task``, ``--variant`` and ``--fidelity`` keep only those rows (comma-separated; the task without its
+``paper_`` prefix), so a variant's sweep can be read beside another sweep's records of the variant it
+is compared with (e.g. ``results/fig3_paper``'s ``full``).
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from analysis._cli import fail, sweep_parser
-from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered
+from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, select
 from analysis.paper_fig3 import FIDELITY_ORDER
 from analysis.paper_fig3 import load as fig3_load
 
@@ -98,12 +103,15 @@ def _milli(value: float) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = sweep_parser("python -m analysis.release", __doc__.split("\n\n")[0])
     parser.add_argument("--out", help="also write the table to this markdown file")
+    for column in ("task", "variant", "fidelity"):
+        parser.add_argument(f"--{column}", help=f"keep only these {column}s (comma-separated)")
     args = parser.parse_args(argv)
     try:
         for d in args.sweep_dirs:
             if not Path(d).is_dir():
                 raise FileNotFoundError(f"no such sweep directory: {d}")
-        text = markdown(release_table(fig3_load(*args.sweep_dirs)))
+        df = select(fig3_load(*args.sweep_dirs), task=args.task, variant=args.variant, fidelity=args.fidelity)
+        text = markdown(release_table(df))
         if args.out:
             Path(args.out).write_text(text)
     except (ValueError, OSError) as err:

@@ -354,6 +354,12 @@ def test_release_table_counts_the_end_of_each_variant(tmp_path):
     row = "| apple | release | paper | 3 | 3/3 | 2/3 | 2/3 | 20 / 20 / 20 mm |"
     assert row in markdown(table.reset_index())
     assert main([str(tmp_path)]) == 0 and main([str(tmp_path / "missing")]) == 2
+    assert (
+        main([str(tmp_path), "--variant", "release", "--task", "apple", "--out", str(tmp_path / "t.md")]) == 0
+    )
+    assert "| apple | full |" not in (tmp_path / "t.md").read_text()
+    assert "| apple | release | paper | 3 |" in (tmp_path / "t.md").read_text()
+    assert main([str(tmp_path), "--variant", "relase"]) == 2  # a misspelt filter is an error, not no rows
 
 
 def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
@@ -417,3 +423,57 @@ def test_opening_the_nominal_fingers_keeps_the_reference_s_pca():
     np.testing.assert_allclose(early @ b, early @ a, atol=0.01)
     late = opening.finger_joints((spline.basis(t[t > 7.5]) @ b)[:, 6:])
     np.testing.assert_allclose(late, np.tile(fingers[0], (len(late), 1)), atol=0.05)  # opened to frame 0
+
+
+def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_when_the_reference_lets_go(
+    scene_for,
+):
+    """sampler.release_reset: at the first plan at or after the reference's last expected contact, the
+    committed control points whose support meets the rest of the trial go back to the nominal (theta0),
+    once; a plan before it, a space without it, or a reference that ends held leave them as they are.
+    Real rollouts (one sample: the nominal, so what is committed is what the plan started from)."""
+    import mujoco
+
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.samplers import PCASplineSpace
+    from tests.helpers import static_reference
+
+    scene = scene_for("apple")
+    m, d = scene.plant_model, mujoco.MjData(scene.plant_model)
+    state = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    rng = np.random.default_rng(0)
+
+    def walked(reference, reset: bool):
+        """A planner bound to the reference whose committed points walked 0.3 from the nominal."""
+        space = PCASplineSpace(0.2, release_reset=reset)
+        problem = Problem.build(scene, reference, space, TrackingCost(), horizon=0.2, num_control_points=12)
+        planner = PredictiveSampling(num_samples=1, horizon=0.2, nthread=1)
+        planner.bind(problem)
+        planner.theta = problem.theta0 + 0.3
+        return planner, problem
+
+    ref = _letting_go(scene)  # last expected contact at frame 12 of 26, slowed by the task's time_scale
+    planner, problem = walked(ref, reset=True)
+    last = problem.last_contact
+    expected = np.flatnonzero(problem.track.contact_active.any(axis=1))
+    assert last == pytest.approx(expected[-1] * problem.track.dt)
+    planner.plan(last - 0.1, state, rng)  # before: carries on
+    np.testing.assert_array_equal(planner.theta, problem.theta0 + 0.3)
+    planner.plan(last + 0.005, state, rng)  # the first plan at or after it
+    reset = problem.spline.window_indices(last, problem.spline.domain[1] - last)
+    kept = np.setdiff1d(np.arange(12), reset)
+    assert 0 < len(reset) < 12
+    np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset])
+    np.testing.assert_array_equal(planner.theta[kept], problem.theta0[kept] + 0.3)
+    planner.theta[reset] += 0.1  # once: a later plan does not reset again
+    planner.plan(last + 0.1, state, rng)
+    np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset] + 0.1)
+    planner.close()
+    for reference, reset_on in ((ref, False), (static_reference(scene, duration=1.0, frames=26), True)):
+        planner, problem = walked(reference, reset_on)  # without the option; a reference that ends held
+        planner.plan(0.9, state, rng)
+        np.testing.assert_array_equal(planner.theta, problem.theta0 + 0.3)
+        planner.close()

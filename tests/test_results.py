@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from analysis import readme_blocks
 from analysis.paper_fig3 import load, markdown
 from contactmpc.records import RECORD_NAME
 
@@ -42,3 +43,18 @@ def test_readme_fig3_table_is_made_from_the_kept_records() -> None:
     lines = [line for line in table if line.startswith("| ") and "---" not in line]
     missing = [line for line in lines if line not in readme]
     assert not missing, f"{len(missing)} of {len(lines)} lines not in README, first: {missing[0]}"
+
+
+@pytest.mark.skipif(not RECORDS, reason="no kept records in results/")
+def test_readme_blocks_are_what_the_analysis_makes_of_the_kept_records() -> None:
+    """Every README block made from ``results/`` (Fig. 3, the operating-point map, the end of the paper
+    tasks) is exactly what ``python -m analysis.readme_blocks`` makes of the kept records now."""
+    readme = (REPO / "README.md").read_text()
+    for name in readme_blocks.BLOCKS:
+        assert f"<!-- {name}:begin" in readme and f"<!-- {name}:end -->" in readme, name
+    assert readme_blocks.made(readme) == readme, "stale README block: run python -m analysis.readme_blocks"
+
+
+def test_a_readme_without_a_block_is_refused() -> None:
+    with pytest.raises(ValueError, match="no block operating_point"):
+        readme_blocks.rewrite("# README\n", "operating_point", "")

@@ -35,6 +35,8 @@ class Problem:
         duration: control time a trial simulates (s).
         noise_std: (d,) the sampling noise per column of ``theta``, or (M, d) per control point (a
             space with a ``root_window`` or ``release_window``); ``None``: the space's ``noise_std``.
+        last_contact: control time (s) of the reference's last expected contact where it lets go
+            (``None``: it ends held, or expects none).
     """
 
     scene: Scene
@@ -45,6 +47,7 @@ class Problem:
     theta0: np.ndarray
     duration: float
     noise_std: np.ndarray | None = None
+    last_contact: float | None = None
 
     @classmethod
     def build(
@@ -102,4 +105,5 @@ class Problem:
             theta0=theta0,
             duration=float(track.duration if duration is None else duration),
             noise_std=space.point_noise_std(spline, first_contact, last_contact),
+            last_contact=last_contact,
         )

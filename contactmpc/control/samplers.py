@@ -102,6 +102,12 @@ class SplineSpace:
             pose at the last expected contact, to the reference's first pose (the open hand of the
             approach), and stay there; 0 (the paper): the reference's fingers. Only where the
             reference lets go.
+        release_reset: at the first replan at or after the reference's last expected contact (only
+            where it lets go), the planner's committed control points whose support meets the rest of
+            the trial go back to the nominal (:meth:`fit`'s, with ``release_open`` / ``release_pause``
+            if set): the drift that warm-started sampling accumulated during the task (the grip its
+            samples walked into) is dropped, and the hand lets go as the nominal does. ``False`` (the
+            paper): the committed control points carry on.
     """
 
     @checked
@@ -116,7 +122,9 @@ class SplineSpace:
         release_window: tuple[float, float] | None = None,
         release_pause: Annotated[float, Ge(0)] = 0.0,
         release_open: Annotated[float, Ge(0)] = 0.0,
+        release_reset: bool = False,
     ) -> None:
+        self.release_reset = bool(release_reset)
         self.release_pause = float(release_pause)
         self.release_open = float(release_open)
         self.root_window = _window("root_window", root_window)
@@ -277,7 +285,7 @@ class PCASplineSpace(SplineSpace):
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
-            release_window, release_pause, release_open: see :class:`SplineSpace`.
+            release_window, release_pause, release_open, release_reset: see :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -296,6 +304,7 @@ class PCASplineSpace(SplineSpace):
         release_window: tuple[float, float] | None = None,
         release_pause: Annotated[float, Ge(0)] = 0.0,
         release_open: Annotated[float, Ge(0)] = 0.0,
+        release_reset: bool = False,
     ) -> None:
         super().__init__(
             sigma2,
@@ -307,6 +316,7 @@ class PCASplineSpace(SplineSpace):
             release_window,
             release_pause,
             release_open,
+            release_reset,
         )
         self.basis = basis
         self.frozen_components = int(frozen_components)

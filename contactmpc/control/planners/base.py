@@ -137,6 +137,10 @@ class Planner:
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
         self._basis_cache: dict[int, np.ndarray] = {}
         self._actuators = as_index(problem.scene.index.actuators)
+        # sampler.release_reset: when the reference lets go, the committed control points from then on
+        # go back to the nominal once (None: never)
+        reset = problem.last_contact is not None and problem.space.release_reset
+        self._release_at = problem.last_contact if reset else None
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
         if self.robust is not None:
@@ -239,6 +243,8 @@ class Planner:
             rng: the trial's random generator.
         """
         start = time.perf_counter()
+        if self._release_at is not None and t >= self._release_at - 1e-9:
+            self.release()
         if not self.needs_rollouts:
             window = self.problem.spline.window_indices(t, self.horizon)
             terms = {k: float("nan") for k in self.problem.cost.terms}
@@ -256,6 +262,19 @@ class Planner:
             num_diverged=int(diverged.sum()),
             seconds=time.perf_counter() - start,
         )
+
+    def release(self) -> np.ndarray:
+        """Put the committed control points whose support meets the rest of the trial after the
+        reference's last expected contact back to the nominal (``sampler.release_reset``); done once.
+
+        Returns:
+            the indices of the control points reset.
+        """
+        spline, at = self.problem.spline, self.problem.last_contact
+        reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
+        self.theta[reset] = self.problem.theta0[reset]
+        self._release_at = None
+        return reset
 
     def window_std(self, window: np.ndarray) -> np.ndarray:
         """The sampling noise of the window's control points: (d,), or (Mw, d) where it varies per

@@ -1,0 +1,146 @@
+"""The README's blocks made from the kept sweep records (``results/``), re-made in place.
+
+Each block sits between ``<!-- NAME:begin ... -->`` and ``<!-- NAME:end -->`` in ``README.md`` and is what
+one analysis command makes of the records in ``results/`` (the command is written in the block's begin
+marker): the Fig. 3 grid on the paper's data (:mod:`analysis.paper_fig3`), the operating-point map
+(:mod:`analysis.operating_point`) and the end of the paper tasks (:mod:`analysis.release`). A block whose
+records are not all there yet says how many it has. ``tests/test_results.py`` checks that the README
+holds exactly what this module makes of the kept records.
+
+Command line (from the repository root; ``--check`` changes nothing and exits 1 if a block is stale)::
+
+    python -m analysis.readme_blocks [--check]
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pandas as pd
+
+from analysis import operating_point, paper_fig3, release
+from analysis.aggregate import select
+
+REPO = Path(__file__).resolve().parent.parent
+RESULTS = REPO / "results"
+FIG3_IMAGE = "analysis/images/fig3_paper_32samples.png"
+
+#: The operating-point map's records: the map's own sweep, the chosen point's full-method trials of
+#: fig3_paper (the apple and bottle at 32 samples, paper_32samples = s32 on the paper point) and the
+#: stapler with the wrist sampled while contact is acquired at that point.
+POINT_DIRS = ("operating_point", "fig3_paper", "stapler_wrist_32samples")
+POINT_FILTER = {"task": "apple,bottle,stapler", "variant": "full,wrist_acquire"}
+#: The end of the paper tasks: fig3_paper's full method (the "before") beside variant=release_reset.
+RELEASE_DIRS = ("fig3_paper", "release_reset")
+RELEASE_FILTER = {"task": "apple,bottle", "variant": "full,release_reset", "fidelity": "paper"}
+
+
+def _dirs(names: tuple[str, ...], root: Path) -> list[Path]:
+    return [root / n for n in names if (root / n).is_dir()]
+
+
+def fig3_block(root: Path = RESULTS, image_out: Path | None = None) -> str:
+    """The Fig. 3 block: how many of the 144 trials are kept, the figure, the table and the tests.
+    With ``image_out`` the figure is drawn there (the README shows :data:`FIG3_IMAGE`)."""
+    df = paper_fig3.load(root / "fig3_paper")
+    if image_out is not None:
+        out = paper_fig3.write_fig3(df, image_out.parent / "fig3_paper_analysis")
+        shutil.copy(out / "fig3_fidelities.png", image_out)
+    counts = df.groupby(["fidelity", "task", "variant"]).size()
+    parts = []
+    for fid in ("paper", "authors_code"):
+        if fid not in counts.index.get_level_values(0):
+            parts.append(f"`{fid}`: none yet")
+            continue
+        c = counts.loc[fid]
+        cells = "every cell" if len(c) == 12 else f"{len(c)} of 12 cells"
+        seeds = f"{c.min()}" if c.min() == c.max() else f"{c.min()}-{c.max()}"
+        parts.append(f"`{fid}`: {c.sum()} trials, {cells}, {seeds} seed{'s' if c.max() > 1 else ''} each")
+    cpu = df["cpu_seconds"].sum() / 3600
+    return (
+        f"**{len(df)} of 144 trials** ({'; '.join(parts)}; {cpu:.2f} CPU-hours measured):\n\n"
+        f"![Fig. 3 on the paper's data at preset=paper_32samples]({FIG3_IMAGE})\n\n" + paper_fig3.markdown(df)
+    )
+
+
+def point_block(root: Path = RESULTS) -> str:
+    """The operating-point map on the kept records (:data:`POINT_DIRS`, rows :data:`POINT_FILTER`)."""
+    df = select(operating_point.load(*_dirs(POINT_DIRS, root)), **POINT_FILTER)
+    table = operating_point.summary(df)
+    cpu = pd.to_numeric(df["compute"], errors="coerce").sum() / 3600
+    return f"**{len(df)} trials, {cpu:.2f} CPU-hours**:\n\n" + operating_point.markdown(
+        table, operating_point.cheapest(table)
+    )
+
+
+def release_block(root: Path = RESULTS) -> str:
+    """The end of the paper apple and bottle: the full method against variant=release_reset."""
+    df = select(paper_fig3.load(*_dirs(RELEASE_DIRS, root)), **RELEASE_FILTER)
+    return release.markdown(release.release_table(df))
+
+
+#: name -> (what makes it, the command the begin marker states)
+BLOCKS: dict[str, tuple[Callable[..., str], str]] = {
+    "fig3_paper": (fig3_block, "python -m analysis.paper_fig3 results/fig3_paper"),
+    "operating_point": (
+        point_block,
+        f"python -m analysis.operating_point {' '.join('results/' + d for d in POINT_DIRS)} "
+        + " ".join(f"--{k} {v}" for k, v in POINT_FILTER.items()),
+    ),
+    "release_reset": (
+        release_block,
+        f"python -m analysis.release {' '.join('results/' + d for d in RELEASE_DIRS)} "
+        + " ".join(f"--{k} {v}" for k, v in RELEASE_FILTER.items()),
+    ),
+}
+
+
+def rewrite(readme: str, name: str, body: str) -> str:
+    """``readme`` with block ``name``'s content replaced by ``body`` (the markers kept, the begin marker
+    stating the command). Raises ``ValueError`` if the README has no such block."""
+    begin, end = f"<!-- {name}:begin", f"<!-- {name}:end -->"
+    if begin not in readme or end not in readme:
+        raise ValueError(f"README.md has no block {name} ({begin} ... {end})")
+    a = readme.index(begin)
+    b = readme.index(end) + len(end)
+    marker = f"{begin} (made by `python -m analysis.readme_blocks` from: {BLOCKS[name][1]}) -->"
+    return readme[:a] + marker + "\n" + body + end + readme[b:]
+
+
+def made(readme: str, root: Path = RESULTS, draw: bool = False) -> str:
+    """``readme`` with every block re-made from the records under ``root`` (blocks whose records are
+    absent are left as they are). ``draw`` also re-draws the figures."""
+    for name, (make, _) in BLOCKS.items():
+        rewrite(readme, name, "")  # the README must have the block, records or not
+        try:
+            body = make(root, REPO / FIG3_IMAGE) if (draw and name == "fig3_paper") else make(root)
+        except (ValueError, FileNotFoundError):
+            continue  # its records are not here: the block stays as it is
+        readme = rewrite(readme, name, body)
+    return readme
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m analysis.readme_blocks", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("--check", action="store_true", help="change nothing; exit 1 if a block is stale")
+    args = parser.parse_args(argv)
+    path = REPO / "README.md"
+    old = path.read_text()
+    new = made(old, draw=not args.check)
+    if args.check:
+        stale = old != new
+        print("README blocks are " + ("stale: run python -m analysis.readme_blocks" if stale else "current"))
+        return int(stale)
+    path.write_text(new)
+    print(f"re-made {', '.join(BLOCKS)} in {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
