@@ -32,6 +32,9 @@ NOT_THE_TRIAL: tuple[str, ...] = (
     "job.video",  # a video rendered after the trial ...
     "job.video_speed",  # ... and its playback speed
     "job.reference_cache",  # where synthesised references are cached (the same reference either way)
+    # the root slot named after the variant group: its files are global (they set cost, sampler, ...),
+    # so a plain value here changes nothing (experiment=operating_point set "full" until 2026-11-25)
+    "variant",
 )
 """Config keys (with everything under them) that do not change what a trial does: where it is written,
 how fast it runs, what it shows. A trial's identity is its resolved config less these (and its seed):

@@ -310,3 +310,23 @@ def test_presets_and_variants_still_set_their_groups():
     joint = compose_config(["variant=joint_space", "planner=replay"])
     assert joint.sampler._target_.endswith("JointSplineSpace") and joint.planner.num_samples == 32
     assert compose_config(["experiment=smoke", "duration=1.0"]).duration == 1.0  # the command line wins
+
+
+GLOBAL_GROUPS = sorted(
+    d.name
+    for d in CONF_DIR.iterdir()
+    if d.is_dir() and any(p.read_text().startswith("# @package _global_") for p in d.glob("*.yaml"))
+)
+
+
+@pytest.mark.parametrize("path", sorted(CONF_DIR.glob("*/*.yaml")), ids=lambda p: f"{p.parent.name}/{p.stem}")
+def test_no_file_sets_a_global_group_by_a_plain_value(path):
+    """``variant: full`` in a file's body sets the root slot named ``variant``, not the variant group
+    (whose files are ``_global_``): it changes nothing, silently (experiment=release_reset ran the full
+    method so). A global group is chosen in the defaults list (``- override /variant: full``)."""
+    assert len(GLOBAL_GROUPS) >= 4 and "variant" in GLOBAL_GROUPS
+    values = OmegaConf.load(path)
+    if not isinstance(values, dict) and not OmegaConf.is_dict(values):
+        return
+    plain = [g for g in GLOBAL_GROUPS if g in values]
+    assert not plain, f"{path.name} sets {plain} as values: choose them in its defaults list"
