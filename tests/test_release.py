@@ -429,8 +429,9 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
     scene_for,
 ):
     """sampler.release_reset: at the first plan at or after the reference's last expected contact, the
-    committed control points whose support meets the rest of the trial go back to the nominal (theta0),
-    once; a plan before it, a space without it, or a reference that ends held leave them as they are.
+    committed control points whose support meets the rest of the trial go back to the release nominal
+    (theta0, or the opened one with release_open), once; a plan before it, a space without it, or a
+    reference that ends held leave them as they are.
     Real rollouts (one sample: the nominal, so what is committed is what the plan started from)."""
     import mujoco
 
@@ -471,6 +472,18 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
     planner.theta[reset] += 0.1  # once: a later plan does not reset again
     planner.plan(last + 0.1, state, rng)
     np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset] + 0.1)
+    planner.close()
+    # with an opening nominal: the reference's own until the last contact (bit for bit: the trial is the
+    # full method's until then), the opened one from the reset on
+    opening = PCASplineSpace(0.2, release_reset=True, release_open=0.1)
+    problem = Problem.build(scene, ref, opening, TrackingCost(), horizon=0.2, num_control_points=12)
+    plain = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), horizon=0.2, num_control_points=12)
+    np.testing.assert_array_equal(problem.theta0, plain.theta0)
+    assert np.abs(problem.release_theta[reset] - plain.theta0[reset]).max() > 1e-3
+    planner = PredictiveSampling(num_samples=1, horizon=0.2, nthread=1)
+    planner.bind(problem)
+    planner.plan(last + 0.005, state, rng)
+    np.testing.assert_array_equal(planner.theta[reset], problem.release_theta[reset])
     planner.close()
     for reference, reset_on in ((ref, False), (static_reference(scene, duration=1.0, frames=26), True)):
         planner, problem = walked(reference, reset_on)  # without the option; a reference that ends held

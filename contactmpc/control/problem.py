@@ -37,6 +37,11 @@ class Problem:
             space with a ``root_window`` or ``release_window``); ``None``: the space's ``noise_std``.
         last_contact: control time (s) of the reference's last expected contact where it lets go
             (``None``: it ends held, or expects none).
+        release_theta: (M, d) the nominal the planner's committed control points go back to at the
+            last contact (a space with ``release_reset``: its release nominal, the reference's own
+            where it sets no ``release_open`` / ``release_pause``); ``theta0`` is then the reference's
+            own, so that a trial is the full method's bit for bit until the last contact. ``None``:
+            no reset.
     """
 
     scene: Scene
@@ -48,6 +53,7 @@ class Problem:
     duration: float
     noise_std: np.ndarray | None = None
     last_contact: float | None = None
+    release_theta: np.ndarray | None = None
 
     @classmethod
     def build(
@@ -86,15 +92,23 @@ class Problem:
         # the reference lets go where its track ends without contact (else there is no release)
         lets_go = expected.size and expected[-1] < len(track.contact_active) - 1
         last_contact = float(expected[-1] * track.dt) if lets_go else None
-        theta0 = space.fit(
-            spline,
-            track.hand_times,
-            reference.hand_qpos,
-            ranges,
-            scene.hand.num_root,
-            meta=reference.meta,
-            last_contact=last_contact,
-        )
+
+        def fit(until: float | None) -> np.ndarray:
+            return space.fit(
+                spline,
+                track.hand_times,
+                reference.hand_qpos,
+                ranges,
+                scene.hand.num_root,
+                meta=reference.meta,
+                last_contact=until,
+            )
+
+        theta0 = fit(last_contact)
+        release_theta = None
+        if space.release_reset and last_contact is not None:
+            # the release nominal takes over at the last contact; until then the reference's own
+            release_theta, theta0 = theta0, fit(None)
         cost.bind(scene, track, reference)
         return cls(
             scene=scene,
@@ -106,4 +120,5 @@ class Problem:
             duration=float(track.duration if duration is None else duration),
             noise_std=space.point_noise_std(spline, first_contact, last_contact),
             last_contact=last_contact,
+            release_theta=release_theta,
         )

@@ -104,10 +104,13 @@ class SplineSpace:
             reference lets go.
         release_reset: at the first replan at or after the reference's last expected contact (only
             where it lets go), the planner's committed control points whose support meets the rest of
-            the trial go back to the nominal (:meth:`fit`'s, with ``release_open`` / ``release_pause``
-            if set): the drift that warm-started sampling accumulated during the task (the grip its
-            samples walked into) is dropped, and the hand lets go as the nominal does. ``False`` (the
-            paper): the committed control points carry on.
+            the trial go to the release nominal (:meth:`fit`'s with ``release_open`` /
+            ``release_pause`` if set, else the reference's own): the drift that warm-started sampling
+            accumulated during the task (the grip its samples walked into) is dropped, and the hand
+            lets go as that nominal does. Until then the nominal is the reference's own (the refit of
+            an opened or paused nominal moves it a little everywhere, ~1e-12 rad, which changes whole
+            trials), so a trial is the full method's bit for bit before the last contact. ``False``
+            (the paper): the committed control points carry on.
     """
 
     @checked

@@ -139,8 +139,7 @@ class Planner:
         self._actuators = as_index(problem.scene.index.actuators)
         # sampler.release_reset: when the reference lets go, the committed control points from then on
         # go back to the nominal once (None: never)
-        reset = problem.last_contact is not None and problem.space.release_reset
-        self._release_at = problem.last_contact if reset else None
+        self._release_at = problem.last_contact if problem.release_theta is not None else None
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
         if self.robust is not None:
@@ -265,14 +264,15 @@ class Planner:
 
     def release(self) -> np.ndarray:
         """Put the committed control points whose support meets the rest of the trial after the
-        reference's last expected contact back to the nominal (``sampler.release_reset``); done once.
+        reference's last expected contact to the release nominal (``problem.release_theta``:
+        ``sampler.release_reset``); done once.
 
         Returns:
             the indices of the control points reset.
         """
         spline, at = self.problem.spline, self.problem.last_contact
         reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
-        self.theta[reset] = self.problem.theta0[reset]
+        self.theta[reset] = self.problem.release_theta[reset]
         self._release_at = None
         return reset
 
