@@ -28,6 +28,7 @@ from analysis.aggregate import select
 REPO = Path(__file__).resolve().parent.parent
 RESULTS = REPO / "results"
 FIG3_IMAGE = "analysis/images/fig3_paper_32samples.png"
+RELEASE_IMAGE = "analysis/images/release_paper.png"
 
 #: The operating-point map's records: the map's own sweep, the chosen point's full-method trials of
 #: fig3_paper (the apple and bottle at 32 samples, paper_32samples = s32 on the paper point) and the
@@ -78,14 +79,19 @@ def point_block(root: Path = RESULTS) -> str:
     )
 
 
-def release_block(root: Path = RESULTS) -> str:
+def release_block(root: Path = RESULTS, image_out: Path | None = None) -> str:
     """The end of the paper apple and bottle: the full method against variants release_reset and release
-    (a variant none of whose records is kept yet is left out)."""
+    (a variant none of whose records is kept yet is left out); with ``image_out`` the figure is drawn
+    there (the README shows :data:`RELEASE_IMAGE`)."""
     df = paper_fig3.load(*_dirs(RELEASE_DIRS, root))
     have = set(df["variant"])
     variants = ",".join(v for v in RELEASE_FILTER["variant"].split(",") if v in have)
     df = select(df, **{**RELEASE_FILTER, "variant": variants})
-    return release.markdown(release.release_table(df))
+    if image_out is not None:
+        release.release_figure(df, image_out)
+    return f"![the end of the paper apple and bottle, per trial]({RELEASE_IMAGE})\n\n" + release.markdown(
+        release.release_table(df)
+    )
 
 
 #: name -> (what makes it, the command the begin marker states)
@@ -122,7 +128,8 @@ def made(readme: str, root: Path = RESULTS, draw: bool = False) -> str:
     for name, (make, _) in BLOCKS.items():
         rewrite(readme, name, "")  # the README must have the block, records or not
         try:
-            body = make(root, REPO / FIG3_IMAGE) if (draw and name == "fig3_paper") else make(root)
+            image = {"fig3_paper": FIG3_IMAGE, "release_reset": RELEASE_IMAGE}.get(name)
+            body = make(root, REPO / image) if (draw and image) else make(root)
         except (ValueError, FileNotFoundError):
             continue  # its records are not here: the block stays as it is
         readme = rewrite(readme, name, body)

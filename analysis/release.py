@@ -24,6 +24,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from analysis._cli import fail, sweep_parser
 from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, select
@@ -94,6 +97,54 @@ def markdown(table: pd.DataFrame) -> str:
             f"| {r.finished_cleanly}/{r.n} | {errs} {unit} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def release_figure(df: pd.DataFrame, path: str | Path | None = None) -> Figure:
+    """Per task (a panel) and variant (a column of dots), each trial's object error after the contact
+    span (mean, log scale): filled where the trial finished cleanly, hollow where not, a cross where it
+    did not complete; the task's tolerance for being settled as a dashed line where the records say it.
+
+    Args:
+        df: trial records (:func:`analysis.paper_fig3.load`).
+        path: where to save the PNG (``None``: not saved).
+    """
+    good = ok_trials(df)
+    tasks = ordered(good["task"], TASK_ORDER)
+    fig = Figure(figsize=(3.2 * max(1, len(tasks)), 3.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, max(1, len(tasks)), squeeze=False)[0]
+    for ax, task in zip(axes, tasks, strict=False):
+        at = good[good["task"] == task]
+        col = ERRORS[error_kind(at)]
+        variants = ordered(at["variant"], VARIANT_ORDER)
+        for i, variant in enumerate(variants):
+            g = at[at["variant"] == variant]
+            err = 1e3 * pd.to_numeric(g[f"{col}_after_mean"], errors="coerce").to_numpy(float)
+            clean = g["finished_cleanly"].fillna(False).astype(bool).to_numpy()
+            done = g["completed"].fillna(False).astype(bool).to_numpy()
+            x = i + np.linspace(-0.15, 0.15, len(g)) if len(g) > 1 else np.full(len(g), float(i))
+            ax.scatter(x[clean], err[clean], color="tab:green", zorder=3)
+            ax.scatter(
+                x[done & ~clean], err[done & ~clean], facecolors="none", edgecolors="tab:red", zorder=3
+            )
+            ax.scatter(x[~done], err[~done], marker="x", color="tab:gray", zorder=3)
+        ax.set_xticks(range(len(variants)), variants, rotation=20)
+        ax.set_yscale("log")
+        ax.set_ylim(3, 3000)  # the same on every panel: millimetres to metres
+        ax.set_yticks([3, 10, 30, 100, 300, 1000, 3000], ["3", "10", "30", "100", "300", "1000", "3000"])
+        ax.minorticks_off()
+        ax.set_title(task)
+        ax.set_ylabel("object error after the span (mm, mean)" if col == ERRORS["position"] else "x 1e-3")
+        ax.grid(True, axis="y", alpha=0.3)
+    handles = [
+        Line2D([], [], ls="", marker="o", color="tab:green", label="finished cleanly"),
+        Line2D([], [], ls="", marker="o", mfc="none", mec="tab:red", label="completed, not settled"),
+        Line2D([], [], ls="", marker="x", color="tab:gray", label="not completed"),
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncols=3, frameon=False)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
 
 
 def _milli(value: float) -> str:

@@ -360,6 +360,14 @@ def test_release_table_counts_the_end_of_each_variant(tmp_path):
     assert "| apple | full |" not in (tmp_path / "t.md").read_text()
     assert "| apple | release | paper | 3 |" in (tmp_path / "t.md").read_text()
     assert main([str(tmp_path), "--variant", "relase"]) == 2  # a misspelt filter is an error, not no rows
+    from analysis.release import release_figure
+
+    fig = release_figure(fig3_load(tmp_path), tmp_path / "release.png")
+    assert (tmp_path / "release.png").stat().st_size > 1000
+    (ax,) = fig.axes  # one task
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["full", "release"]
+    dots = sum(len(c.get_offsets()) for c in ax.collections)
+    assert dots == 6  # every trial, whatever its end
 
 
 def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
