@@ -36,9 +36,14 @@ RELEASE_IMAGE = "analysis/images/release_paper.png"
 POINT_DIRS = ("operating_point", "fig3_paper", "stapler_wrist_32samples")
 POINT_FILTER = {"task": "apple,bottle,stapler", "variant": "full,wrist_acquire"}
 #: The end of the paper tasks: fig3_paper's full method (the "before") beside variant=release_reset (the
-#: walked-in grip dropped at the last contact) and variant=release (that, the release term, opening, waiting).
+#: walked-in grip dropped at the last contact), variant=release (that, the release term, opening, waiting)
+#: and variant=release_scheduled (release with no sampling after the last contact), in results/release.
 RELEASE_DIRS = ("fig3_paper", "release_reset", "release")
-RELEASE_FILTER = {"task": "apple,bottle", "variant": "full,release_reset,release", "fidelity": "paper"}
+RELEASE_FILTER = {
+    "task": "apple,bottle",
+    "variant": "full,release_reset,release,release_scheduled",
+    "fidelity": "paper",
+}
 
 
 def _dirs(names: tuple[str, ...], root: Path) -> list[Path]:

@@ -498,3 +498,32 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
         planner.plan(0.9, state, rng)
         np.testing.assert_array_equal(planner.theta, problem.theta0 + 0.3)
         planner.close()
+
+
+def test_release_noise_scales_the_sampling_after_the_last_contact_only():
+    """sampler.release_noise: the rows of the control points whose support lies after the last expected
+    contact get that fraction of the noise; the others keep theirs; no change where the reference ends
+    held (no last contact), and the root-window masking still applies."""
+    from contactmpc.control.samplers import JointSplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    spline = UniformBSpline(20, (0.0, 10.0))
+    t = np.linspace(0.0, 10.0, 101)
+    qpos = np.concatenate([np.zeros((101, 6)), np.sin(t)[:, None] * np.ones((1, 4))], axis=1)
+    ranges = np.tile([-10.0, 10.0], (10, 1))
+    space = JointSplineSpace(0.04, root_sigma2=1e-4, release_noise=0.0)
+    space.fit(spline, t, qpos, ranges, 6, last_contact=6.0)
+    std = space.point_noise_std(spline, first_contact=1.0, last_contact=6.0)
+    after = spline.knots[:20] >= 6.0
+    assert 0 < after.sum() < 20
+    np.testing.assert_array_equal(std[after], 0.0)
+    np.testing.assert_allclose(std[~after, 6:], 0.2)
+    np.testing.assert_allclose(std[~after, :6], 0.01)
+    np.testing.assert_array_equal(space.point_noise_std(spline, 1.0, None), space.noise_std)  # ends held
+    half = JointSplineSpace(0.04, root_window=(0.0, 1.0), release_noise=0.5)
+    half.fit(spline, t, qpos, ranges, 6, last_contact=6.0)
+    std = half.point_noise_std(spline, first_contact=1.0, last_contact=6.0)
+    np.testing.assert_allclose(std[after, 6:], 0.1)
+    assert not std[after, :6].any()  # the wrist, outside its window, stays unsampled
+    with pytest.raises(ValueError, match="release_noise"):
+        JointSplineSpace(0.04, release_noise=-1.0)

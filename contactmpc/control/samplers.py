@@ -111,6 +111,12 @@ class SplineSpace:
             an opened or paused nominal moves it a little everywhere, ~1e-12 rad, which changes whole
             trials), so a trial is the full method's bit for bit before the last contact. ``False``
             (the paper): the committed control points carry on.
+        release_noise: the sampling noise on the control points whose support lies after the
+            reference's last expected contact, as a fraction of the space's (only where the reference
+            lets go). 0 holds the release nominal there (with ``release_reset``: the hand does what the
+            release nominal does, a schedule rather than a search; the samples' random walk otherwise
+            closes the opened fingers again within 2 s on the paper apple); 1 (the paper): the same
+            noise as before the release.
     """
 
     @checked
@@ -126,8 +132,10 @@ class SplineSpace:
         release_pause: Annotated[float, Ge(0)] = 0.0,
         release_open: Annotated[float, Ge(0)] = 0.0,
         release_reset: bool = False,
+        release_noise: Annotated[float, Ge(0)] = 1.0,
     ) -> None:
         self.release_reset = bool(release_reset)
+        self.release_noise = float(release_noise)
         self.release_pause = float(release_pause)
         self.release_open = float(release_open)
         self.root_window = _window("root_window", root_window)
@@ -217,17 +225,23 @@ class SplineSpace:
         """The noise per control point: :attr:`noise_std` (d,), or with ``root_window`` or
         ``release_window`` an (M, d) array whose root columns are 0 on the control points that touch
         neither the root window around ``first_contact`` nor the release window around
-        ``last_contact`` (s, control time; ``None``: no contact expected, the wrist is never sampled)."""
+        ``last_contact`` (s, control time; ``None``: no contact expected, the wrist is never sampled);
+        with ``release_noise`` the rows of the control points whose support lies after
+        ``last_contact`` scaled by it (``last_contact`` ``None``: the reference ends held, no change)."""
         std = self.noise_std
-        if self.root_window is None and self.release_window is None:
+        quieter = self.release_noise != 1.0 and last_contact is not None
+        if self.root_window is None and self.release_window is None and not quieter:
             return std
         out = np.tile(std, (spline.num_control_points, 1))
-        keep = np.zeros(spline.num_control_points, bool)
-        for window, at in ((self.root_window, first_contact), (self.release_window, last_contact)):
-            if window is not None and at is not None:
-                start, end = (at + w for w in window)
-                keep[spline.window_indices(start, end - start)] = True
-        out[~keep, : self.num_root] = 0.0
+        if self.root_window is not None or self.release_window is not None:
+            keep = np.zeros(spline.num_control_points, bool)
+            for window, at in ((self.root_window, first_contact), (self.release_window, last_contact)):
+                if window is not None and at is not None:
+                    start, end = (at + w for w in window)
+                    keep[spline.window_indices(start, end - start)] = True
+            out[~keep, : self.num_root] = 0.0
+        if quieter:  # the control points whose support lies after the last contact
+            out[spline.knots[: spline.num_control_points] >= last_contact - 1e-9] *= self.release_noise
         return out
 
     # --- evaluation ---------------------------------------------------------------------------
@@ -288,7 +302,8 @@ class PCASplineSpace(SplineSpace):
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
-            release_window, release_pause, release_open, release_reset: see :class:`SplineSpace`.
+            release_window, release_pause, release_open, release_reset, release_noise: see
+            :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -308,6 +323,7 @@ class PCASplineSpace(SplineSpace):
         release_pause: Annotated[float, Ge(0)] = 0.0,
         release_open: Annotated[float, Ge(0)] = 0.0,
         release_reset: bool = False,
+        release_noise: Annotated[float, Ge(0)] = 1.0,
     ) -> None:
         super().__init__(
             sigma2,
@@ -320,6 +336,7 @@ class PCASplineSpace(SplineSpace):
             release_pause,
             release_open,
             release_reset,
+            release_noise,
         )
         self.basis = basis
         self.frozen_components = int(frozen_components)
