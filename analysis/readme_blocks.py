@@ -94,8 +94,11 @@ def release_block(root: Path = RESULTS, image_out: Path | None = None) -> str:
     df = select(df, **{**RELEASE_FILTER, "variant": variants})
     if image_out is not None:
         release.release_figure(df, image_out)
-    return f"![the end of the paper apple and bottle, per trial]({RELEASE_IMAGE})\n\n" + release.markdown(
-        release.release_table(df)
+    return (
+        f"![the end of the paper apple and bottle, per trial]({RELEASE_IMAGE})\n\n"
+        + release.markdown(release.release_table(df))
+        + "\nPer seed (object error after the span, mm; clean = finished cleanly, done = completed but not"
+        " settled, failed = not completed):\n\n" + release.paired_markdown(df)
     )
 
 

@@ -99,6 +99,42 @@ def markdown(table: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
+def paired_markdown(df: pd.DataFrame) -> str:
+    """Per task and seed, each variant's trial side by side: the object error after the span (mean, mm, or
+    mrad for an articulation) and how it ended (``clean``: finished cleanly; ``done``: completed, not
+    settled; ``failed``: not completed). Trials of one seed are the same until the last contact where
+    the variants differ only in their release (``release_reset`` and after), so a row is a before/after.
+    Seeds that only one variant has are left out."""
+    good = ok_trials(df)
+    variants = ordered(good["variant"], VARIANT_ORDER)
+    lines = ["| task | seed | " + " | ".join(variants) + " |", "|---|---|" + "---|" * len(variants)]
+    for task in ordered(good["task"], TASK_ORDER):
+        at = good[good["task"] == task]
+        col = ERRORS[error_kind(at)]
+        for seed, g in at.groupby("seed"):
+            if g["variant"].nunique() < 2:
+                continue
+            cells = []
+            for variant in variants:
+                r = g[g["variant"] == variant]
+                if r.empty:
+                    cells.append("")
+                    continue
+                r = r.iloc[0]
+                clean = r.get("finished_cleanly")
+                end = "clean" if _true(clean) else "done" if _true(r.get("completed")) else "failed"
+                cells.append(f"{_milli(float(r.get(f'{col}_after_mean', math.nan)))} {end}")
+            lines.append(f"| {task} | {seed} | " + " | ".join(cells) + " |")
+    if len(lines) == 2:
+        return ""
+    return "\n".join(lines) + "\n"
+
+
+def _true(value) -> bool:
+    """A record's boolean field (``True``/``numpy.True_``); missing or NaN is not true."""
+    return isinstance(value, bool | np.bool_) and bool(value)
+
+
 def release_figure(df: pd.DataFrame, path: str | Path | None = None) -> Figure:
     """Per task (a panel) and variant (a column of dots), each trial's object error after the contact
     span (mean, log scale): filled where the trial finished cleanly, hollow where not, a cross where it

@@ -360,7 +360,12 @@ def test_release_table_counts_the_end_of_each_variant(tmp_path):
     assert "| apple | full |" not in (tmp_path / "t.md").read_text()
     assert "| apple | release | paper | 3 |" in (tmp_path / "t.md").read_text()
     assert main([str(tmp_path), "--variant", "relase"]) == 2  # a misspelt filter is an error, not no rows
-    from analysis.release import release_figure
+    from analysis.release import paired_markdown, release_figure
+
+    paired = paired_markdown(fig3_load(tmp_path)).splitlines()
+    assert paired[0] == "| task | seed | full | release |" and len(paired) == 2 + 3  # a row per seed
+    assert paired[3].startswith("| apple | 1 | ") and paired[3].endswith(" 20 clean |")  # release, seed 1
+    assert " done | " in paired[3] or " failed | " in paired[3]  # the full method's trial of that seed
 
     fig = release_figure(fig3_load(tmp_path), tmp_path / "release.png")
     assert (tmp_path / "release.png").stat().st_size > 1000
