@@ -102,6 +102,17 @@ def release_block(root: Path = RESULTS, image_out: Path | None = None) -> str:
     )
 
 
+def release_lite_block(root: Path = RESULTS) -> str:
+    """The end of the synthetic doorknob at the lite preset (the synthetic task whose reference lets go):
+    the full method against variant=release_scheduled, per variant and per seed."""
+    df = paper_fig3.load(root / "release_lite")
+    return (
+        release.markdown(release.release_table(df))
+        + "\nPer seed (articulation error after the span, x 1e-3 rad or m):\n\n"
+        + release.paired_markdown(df)
+    )
+
+
 #: name -> (what makes it, the command the begin marker states)
 BLOCKS: dict[str, tuple[Callable[..., str], str]] = {
     "fig3_paper": (fig3_block, "python -m analysis.paper_fig3 results/fig3_paper"),
@@ -115,6 +126,7 @@ BLOCKS: dict[str, tuple[Callable[..., str], str]] = {
         f"python -m analysis.release {' '.join('results/' + d for d in RELEASE_DIRS)} "
         + " ".join(f"--{k} {v}" for k, v in RELEASE_FILTER.items()),
     ),
+    "release_lite": (release_lite_block, "python -m analysis.release results/release_lite"),
 }
 
 
