@@ -109,7 +109,8 @@ class SplineSpace:
             accumulated during the task (the grip its samples walked into) is dropped, and the hand
             lets go as that nominal does. Until then the nominal is the reference's own (the refit of
             an opened or paused nominal moves it a little everywhere, ~1e-12 rad, which changes whole
-            trials), so a trial is the full method's bit for bit before the last contact. ``False``
+            trials), so with nothing else changed (``variant=release_reset``) a trial is the full
+            method's bit for bit before the last contact. ``False``
             (the paper): the committed control points carry on.
         release_noise: the sampling noise on the control points whose support lies after the
             reference's last expected contact, as a fraction of the space's (only where the reference
