@@ -15,7 +15,6 @@ Command line (from the repository root; ``--check`` changes nothing and exits 1 
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -55,8 +54,7 @@ def fig3_block(root: Path = RESULTS, image_out: Path | None = None) -> str:
     With ``image_out`` the figure is drawn there (the README shows :data:`FIG3_IMAGE`)."""
     df = paper_fig3.load(root / "fig3_paper")
     if image_out is not None:
-        out = paper_fig3.write_fig3(df, image_out.parent / "fig3_paper_analysis")
-        shutil.copy(out / "fig3_fidelities.png", image_out)
+        paper_fig3.fig3(df, image_out)
     counts = df.groupby(["fidelity", "task", "variant"]).size()
     parts = []
     for fid in ("paper", "authors_code"):
@@ -113,20 +111,22 @@ def release_lite_block(root: Path = RESULTS) -> str:
     )
 
 
-#: name -> (what makes it, the command the begin marker states)
-BLOCKS: dict[str, tuple[Callable[..., str], str]] = {
-    "fig3_paper": (fig3_block, "python -m analysis.paper_fig3 results/fig3_paper"),
+#: name -> (what makes it, the command the begin marker states, the figure it draws or ``None``)
+BLOCKS: dict[str, tuple[Callable[..., str], str, str | None]] = {
+    "fig3_paper": (fig3_block, "python -m analysis.paper_fig3 results/fig3_paper", FIG3_IMAGE),
     "operating_point": (
         point_block,
         f"python -m analysis.operating_point {' '.join('results/' + d for d in POINT_DIRS)} "
         + " ".join(f"--{k} {v}" for k, v in POINT_FILTER.items()),
+        None,
     ),
     "release_reset": (
         release_block,
         f"python -m analysis.release {' '.join('results/' + d for d in RELEASE_DIRS)} "
         + " ".join(f"--{k} {v}" for k, v in RELEASE_FILTER.items()),
+        RELEASE_IMAGE,
     ),
-    "release_lite": (release_lite_block, "python -m analysis.release results/release_lite"),
+    "release_lite": (release_lite_block, "python -m analysis.release results/release_lite", None),
 }
 
 
@@ -145,10 +145,9 @@ def rewrite(readme: str, name: str, body: str) -> str:
 def made(readme: str, root: Path = RESULTS, draw: bool = False) -> str:
     """``readme`` with every block re-made from the records under ``root`` (blocks whose records are
     absent are left as they are). ``draw`` also re-draws the figures."""
-    for name, (make, _) in BLOCKS.items():
+    for name, (make, _, image) in BLOCKS.items():
         rewrite(readme, name, "")  # the README must have the block, records or not
         try:
-            image = {"fig3_paper": FIG3_IMAGE, "release_reset": RELEASE_IMAGE}.get(name)
             body = make(root, REPO / image) if (draw and image) else make(root)
         except (ValueError, FileNotFoundError):
             continue  # its records are not here: the block stays as it is

@@ -102,9 +102,9 @@ def markdown(table: pd.DataFrame) -> str:
 def paired_markdown(df: pd.DataFrame) -> str:
     """Per task and seed, each variant's trial side by side: the object error after the span (mean, mm, or
     mrad for an articulation) and how it ended (``clean``: finished cleanly; ``done``: completed, not
-    settled; ``failed``: not completed). Trials of one seed are the same until the last contact where
-    the variants differ only in their release (``release_reset`` and after), so a row is a before/after.
-    Seeds that only one variant has are left out."""
+    settled; ``failed``: not completed). Where the variants differ only in their release (``full``,
+    ``release_reset`` and after), trials of one seed are the same until the planner first looks past the
+    last contact, so a row is a before/after. Seeds that only one variant has are left out."""
     good = ok_trials(df)
     variants = ordered(good["variant"], VARIANT_ORDER)
     lines = ["| task | seed | " + " | ".join(variants) + " |", "|---|---|" + "---|" * len(variants)]
@@ -137,8 +137,8 @@ def _true(value) -> bool:
 
 def release_figure(df: pd.DataFrame, path: str | Path | None = None) -> Figure:
     """Per task (a panel) and variant (a column of dots), each trial's object error after the contact
-    span (mean, log scale): filled where the trial finished cleanly, hollow where not, a cross where it
-    did not complete; the task's tolerance for being settled as a dashed line where the records say it.
+    span (mean, log scale, 3 mm to 3 m on every panel): filled where the trial finished cleanly, hollow
+    where it completed but was not settled, a cross where it did not complete.
 
     Args:
         df: trial records (:func:`analysis.paper_fig3.load`).

@@ -40,8 +40,8 @@ class Problem:
         release_theta: (M, d) the nominal the planner's committed control points go back to at the
             last contact (a space with ``release_reset``: its release nominal, the reference's own
             where it sets no ``release_open`` / ``release_pause``); ``theta0`` is then the reference's
-            own, so that a trial is the full method's bit for bit until the last contact. ``None``:
-            no reset.
+            own, so that the release nominal changes nothing before the last contact. ``None``: no
+            reset.
     """
 
     scene: Scene

@@ -138,7 +138,7 @@ class Planner:
         self._basis_cache: dict[int, np.ndarray] = {}
         self._actuators = as_index(problem.scene.index.actuators)
         # sampler.release_reset: when the reference lets go, the committed control points from then on
-        # go back to the nominal once (None: never)
+        # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
