@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from contactmpc.control.cost import TrackingCost
@@ -92,6 +93,9 @@ class Problem:
         # the reference lets go where its track ends without contact (else there is no release)
         lets_go = expected.size and expected[-1] < len(track.contact_active) - 1
         last_contact = float(expected[-1] * track.dt) if lets_go else None
+        direction = None
+        if space.release_backoff > 0.0 and last_contact is not None:
+            direction = release_direction(scene, track, int(expected[-1]))
 
         def fit(until: float | None) -> np.ndarray:
             return space.fit(
@@ -102,6 +106,7 @@ class Problem:
                 scene.hand.num_root,
                 meta=reference.meta,
                 last_contact=until,
+                release_direction=direction,
             )
 
         theta0 = fit(last_contact)
@@ -122,3 +127,33 @@ class Problem:
             last_contact=last_contact,
             release_theta=release_theta,
         )
+
+
+def release_direction(scene: Scene, track: ReferenceTrack, step: int) -> np.ndarray:
+    """The way out at the reference's last expected contact: the world unit vector from the centroid of
+    the expected contact points to the palm (the first contact link), with the hand and the object
+    posed as the reference has them at grid step ``step``.
+
+    Args:
+        scene: the composed hand + task (its planning model is posed, in a scratch ``MjData``).
+        track: the slowed reference.
+        step: grid index of the last expected contact.
+
+    Returns:
+        (3,) unit vector.
+    """
+    m, idx = scene.planner_model, scene.index
+    d = mujoco.MjData(m)
+    d.qpos[idx.hand_qpos] = track.hand_qpos[track.frame[step]]
+    d.qpos[idx.object_qpos] = track.object_qpos[step]
+    mujoco.mj_kinematics(m, d)
+    active = np.flatnonzero(track.contact_active[step])
+    bodies = idx.object_bodies[track.contact_object_body[step, active]]
+    points = d.xpos[bodies] + np.einsum(
+        "kij,kj->ki", d.xmat[bodies].reshape(-1, 3, 3), track.contact_object_point[step, active]
+    )
+    away = d.xpos[idx.link_bodies[0]] - points.mean(axis=0)
+    norm = np.linalg.norm(away)
+    if norm < 1e-9:
+        raise ValueError("release direction: the palm sits on the centroid of the expected contacts")
+    return away / norm

@@ -53,15 +53,18 @@ def paused(times: np.ndarray, curves: np.ndarray, at: float, pause: float) -> np
     return np.stack([np.interp(source, times, c) for c in np.asarray(curves, float).T], axis=-1)
 
 
-def opened(times: np.ndarray, curves: np.ndarray, at: float, duration: float) -> np.ndarray:
+def opened(
+    times: np.ndarray, curves: np.ndarray, at: float, duration: float, target: np.ndarray | None = None
+) -> np.ndarray:
     """Curves that leave their course at time ``at`` and go, linearly over ``duration`` seconds, to their
-    first sample's values, and stay there.
+    first sample's values (or ``target``'s), and stay there.
 
     Args:
         times: (T,) increasing sample times (s).
         curves: (T, k) values at those times.
         at: when to leave (s).
         duration: how long the way back takes (s).
+        target: (k,) where the curves go; ``None``: their first sample.
 
     Returns:
         (T, k) curves.
@@ -69,9 +72,29 @@ def opened(times: np.ndarray, curves: np.ndarray, at: float, duration: float) ->
     curves = np.asarray(curves, float)
     times = np.asarray(times, float)
     start = np.array([np.interp(at, times, c) for c in curves.T])
+    goal = curves[0] if target is None else np.asarray(target, float)
     w = np.clip((times - at) / duration, 0.0, 1.0)[:, None]
-    out = (1.0 - w) * start + w * curves[0]
+    out = (1.0 - w) * start + w * goal
     return np.where((times > at)[:, None], out, curves)
+
+
+def backed_off(
+    times: np.ndarray, curves: np.ndarray, offset: np.ndarray, start: float, end: float
+) -> np.ndarray:
+    """Curves shifted by ``offset``, the shift growing linearly from 0 at ``start`` to all of it at
+    ``end`` (s) and kept afterwards.
+
+    Args:
+        times: (T,) sample times (s).
+        curves: (T, k) values at those times.
+        offset: (k,) the full shift.
+        start, end: when the shift begins and when it is complete (s), ``start < end``.
+
+    Returns:
+        (T, k) curves.
+    """
+    w = np.clip((np.asarray(times, float) - start) / (end - start), 0.0, 1.0)[:, None]
+    return np.asarray(curves, float) + w * np.asarray(offset, float)
 
 
 class SplineSpace:
@@ -99,9 +122,18 @@ class SplineSpace:
             that much later), while the fingers open on the reference's schedule: open, then withdraw.
             0 (the paper): the reference's wrist as it is. Only where the reference lets go.
         release_open: seconds (control time) over which the nominal fingers go, from the reference's
-            pose at the last expected contact, to the reference's first pose (the open hand of the
-            approach), and stay there; 0 (the paper): the reference's fingers. Only where the
-            reference lets go.
+            pose at the last expected contact, to the open pose (``release_open_to``), and stay
+            there; 0 (the paper): the reference's fingers. Only where the reference lets go.
+        release_open_to: the open pose: ``approach``, the reference's first pose (the open hand of
+            the approach; on the paper apple it still encloses the object); ``flat``, every finger
+            joint at 0 clipped to its range (the Allegro's straight fingers, the thumb least opposed).
+        release_backoff: metres the nominal wrist moves along the release direction (from the
+            centroid of the expected contacts to the palm, at the reference's last expected contact:
+            away from the object, given by the problem), growing over ``release_backoff_window``
+            and kept while the wrist follows the reference's retreat; 0 (the paper): none. Only
+            where the reference lets go.
+        release_backoff_window: ``(start, end)`` seconds after the last expected contact over which
+            the back-off grows.
         release_reset: at the first replan at or after the reference's last expected contact (only
             where it lets go), the planner's committed control points whose support meets the rest of
             the trial go to the release nominal (:meth:`fit`'s with ``release_open`` /
@@ -134,7 +166,13 @@ class SplineSpace:
         release_open: Annotated[float, Ge(0)] = 0.0,
         release_reset: bool = False,
         release_noise: Annotated[float, Ge(0)] = 1.0,
+        release_open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
+        release_backoff: Annotated[float, Ge(0)] = 0.0,
+        release_backoff_window: tuple[float, float] = (0.5, 1.5),
     ) -> None:
+        self.release_open_to = release_open_to
+        self.release_backoff = float(release_backoff)
+        self.release_backoff_window = _window("release_backoff_window", release_backoff_window)
         self.release_reset = bool(release_reset)
         self.release_noise = float(release_noise)
         self.release_pause = float(release_pause)
@@ -160,6 +198,7 @@ class SplineSpace:
         num_root: int,
         meta: dict | None = None,
         last_contact: float | None = None,
+        release_direction: np.ndarray | None = None,
     ) -> np.ndarray:
         """Fit the space to the reference and return the nominal control points.
 
@@ -173,6 +212,9 @@ class SplineSpace:
                 PCA that came with the paper's data).
             last_contact: control time (s) of the reference's last expected contact where it lets go
                 (``None``: it ends held); with ``release_pause`` the wrist waits there.
+            release_direction: (3,) world unit vector the wrist backs off along with
+                ``release_backoff`` (the first three root DOFs are slides along world x, y, z);
+                required then.
 
         Returns:
             (M, d) nominal control points ``theta``.
@@ -184,12 +226,22 @@ class SplineSpace:
         root = hand_qpos[:, : self.num_root]
         if self.release_pause > 0.0 and last_contact is not None:
             root = paused(times, root, last_contact, self.release_pause)
+        if self.release_backoff > 0.0 and last_contact is not None:
+            if release_direction is None:
+                raise ValueError("sampler.release_backoff needs the release direction (the problem's)")
+            offset = np.zeros(self.num_root)
+            offset[:3] = self.release_backoff * np.asarray(release_direction, float)
+            start, end = (last_contact + w for w in self.release_backoff_window)
+            root = backed_off(times, root, offset, start, end)
         root_cp = spline.fit(times, root)
         fingers = hand_qpos[:, self.num_root :]
         if self.release_open > 0.0 and last_contact is not None:
             # the nominal opens; the space (a PCA) stays the reference's own
+            target = None
+            if self.release_open_to == "flat":
+                target = np.clip(0.0, *self.ranges[self.num_root :].T)
             finger_cp = self._fit_fingers(
-                spline, times, opened(times, fingers, last_contact, self.release_open), fingers
+                spline, times, opened(times, fingers, last_contact, self.release_open, target), fingers
             )
         else:
             finger_cp = self._fit_fingers(spline, times, fingers)
@@ -303,8 +355,8 @@ class PCASplineSpace(SplineSpace):
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
-            release_window, release_pause, release_open, release_reset, release_noise: see
-            :class:`SplineSpace`.
+            release_window, release_pause, release_open, release_reset, release_noise,
+            release_open_to, release_backoff, release_backoff_window: see :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -325,6 +377,9 @@ class PCASplineSpace(SplineSpace):
         release_open: Annotated[float, Ge(0)] = 0.0,
         release_reset: bool = False,
         release_noise: Annotated[float, Ge(0)] = 1.0,
+        release_open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
+        release_backoff: Annotated[float, Ge(0)] = 0.0,
+        release_backoff_window: tuple[float, float] = (0.5, 1.5),
     ) -> None:
         super().__init__(
             sigma2,
@@ -338,6 +393,9 @@ class PCASplineSpace(SplineSpace):
             release_open,
             release_reset,
             release_noise,
+            release_open_to,
+            release_backoff,
+            release_backoff_window,
         )
         self.basis = basis
         self.frozen_components = int(frozen_components)
