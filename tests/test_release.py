@@ -532,3 +532,80 @@ def test_release_noise_scales_the_sampling_after_the_last_contact_only():
     assert not std[after, :6].any()  # the wrist, outside its window, stays unsampled
     with pytest.raises(ValueError, match="release_noise"):
         JointSplineSpace(0.04, release_noise=-1.0)
+
+
+def test_the_nominal_wrist_backs_off_and_the_fingers_open_to_the_flat_hand():
+    """sampler.release_backoff: the wrist slides shift by ``release_backoff`` x the release direction,
+    growing over ``release_backoff_window`` after the last contact and kept; its hinges and everything
+    before the window are the reference's. sampler.release_open_to=flat: the fingers open to 0 within
+    their ranges. No change where the reference ends held; a back-off without a direction is refused."""
+    from contactmpc.control.samplers import JointSplineSpace, backed_off
+    from contactmpc.reference.bspline import UniformBSpline
+
+    t = np.linspace(0.0, 10.0, 101)
+    x = np.stack([t, np.sin(t)], axis=-1)
+    y = backed_off(t, x, np.array([1.0, -2.0]), start=4.0, end=6.0)
+    np.testing.assert_array_equal(y[t <= 4.0], x[t <= 4.0])
+    np.testing.assert_allclose(y[t >= 6.0], x[t >= 6.0] + [1.0, -2.0])
+    np.testing.assert_allclose(y[50], x[50] + [0.5, -1.0])  # half way at 5 s
+
+    qpos = np.concatenate([np.stack([np.cos(t)] * 6, -1), np.stack([0.5 + 0.3 * np.sin(t)] * 4, -1)], axis=1)
+    spline = UniformBSpline(40, (0.0, 10.0))
+    ranges = np.tile([-3.0, 3.0], (10, 1))
+    ranges[6] = [0.2, 1.0]  # a joint whose range excludes 0 (the Allegro thumb's first): opens to 0.2
+    direction = np.array([0.0, 0.6, 0.8])
+    space = JointSplineSpace(
+        0.2, release_open=1.0, release_open_to="flat", release_backoff=0.1, release_backoff_window=(0.5, 1.5)
+    )
+    plain = JointSplineSpace(0.2).fit(spline, t, qpos, ranges, 6)
+    np.testing.assert_allclose(space.fit(spline, t, qpos, ranges, 6), plain)  # ends held: as it is
+    theta = space.fit(spline, t, qpos, ranges, 6, last_contact=4.0, release_direction=direction)
+    curve, base = spline.basis(t) @ theta, spline.basis(t) @ plain
+    early, late = t < 3.5, t > 6.0
+    np.testing.assert_allclose(curve[early], base[early], atol=0.01)
+    np.testing.assert_allclose(curve[late, :3], base[late, :3] + 0.1 * direction, atol=0.01)
+    np.testing.assert_allclose(curve[late, 3:6], base[late, 3:6], atol=0.01)  # the hinges: not moved
+    np.testing.assert_allclose(curve[late, 6:], np.tile([0.2, 0.0, 0.0, 0.0], (late.sum(), 1)), atol=0.01)
+    with pytest.raises(ValueError, match="release direction"):
+        space.fit(spline, t, qpos, ranges, 6, last_contact=4.0)
+    with pytest.raises(ValueError, match="release_open_to"):
+        JointSplineSpace(0.2, release_open_to="closed")
+
+
+def test_the_release_direction_points_from_the_expected_contacts_to_the_palm(scene_for):
+    """Problem.build gives the space the release direction: with the hand and the object posed as the
+    reference has them at its last expected contact (checked here on the plant model, posed again),
+    the unit vector from the centroid of the expected contacts' object points, in the world, to the
+    palm; the release nominal's wrist ends that far along it and no earlier nominal moves."""
+    import mujoco
+
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.problem import Problem, release_direction
+    from contactmpc.control.samplers import PCASplineSpace
+
+    scene = scene_for("apple")
+    ref = _letting_go(scene)
+    space = PCASplineSpace(0.2, release_reset=True, release_backoff=0.05, release_backoff_window=(0.0, 0.1))
+    problem = Problem.build(scene, ref, space, TrackingCost(), horizon=0.2, num_control_points=12)
+    plain = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), horizon=0.2, num_control_points=12)
+    np.testing.assert_array_equal(problem.theta0, plain.theta0)
+    track, idx = problem.track, scene.index
+    step = int(np.flatnonzero(track.contact_active.any(axis=1))[-1])
+    m, d = scene.plant_model, mujoco.MjData(scene.plant_model)
+    d.qpos[idx.hand_qpos] = ref.hand_qpos[track.frame[step]]
+    d.qpos[idx.object_qpos] = track.object_qpos[step]
+    mujoco.mj_forward(m, d)
+    points = [
+        d.xpos[idx.object_bodies[track.contact_object_body[step, k]]]
+        + d.xmat[idx.object_bodies[track.contact_object_body[step, k]]].reshape(3, 3)
+        @ track.contact_object_point[step, k]
+        for k in np.flatnonzero(track.contact_active[step])
+    ]
+    away = d.xpos[idx.link_bodies[0]] - np.mean(points, axis=0)
+    direction = release_direction(scene, track, step)
+    np.testing.assert_allclose(np.linalg.norm(direction), 1.0)
+    np.testing.assert_allclose(direction, away / np.linalg.norm(away), atol=1e-9)
+    end = problem.spline.basis(np.array([problem.spline.domain[1]]))
+    shift = (end @ problem.release_theta - end @ plain.theta0)[0]
+    np.testing.assert_allclose(shift[:3], 0.05 * direction, atol=2e-3)
+    np.testing.assert_allclose(shift[3:6], 0.0, atol=2e-3)
