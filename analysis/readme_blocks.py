@@ -36,11 +36,12 @@ POINT_DIRS = ("operating_point", "fig3_paper", "stapler_wrist_32samples")
 POINT_FILTER = {"task": "apple,bottle,stapler", "variant": "full,wrist_acquire"}
 #: The end of the paper tasks: fig3_paper's full method (the "before") beside variant=release_reset (the
 #: walked-in grip dropped at the last contact), variant=release (that, the release term, opening, waiting)
-#: and variant=release_scheduled (release with no sampling after the last contact), in results/release.
-RELEASE_DIRS = ("fig3_paper", "release_reset", "release")
+#: variant=release_scheduled (release with no sampling after the last contact), in results/release, and
+#: variant=release_backoff (scheduled, open to the flat hand, the wrist backed off), in results/release_backoff.
+RELEASE_DIRS = ("fig3_paper", "release_reset", "release", "release_backoff")
 RELEASE_FILTER = {
     "task": "apple,bottle",
-    "variant": "full,release_reset,release,release_scheduled",
+    "variant": "full,release_reset,release,release_scheduled,release_backoff",
     "fidelity": "paper",
 }
 

@@ -36,6 +36,15 @@ from analysis.paper_fig3 import load as fig3_load
 #: Which error a task's table shows: the free body's position, or (no free body) its articulations.
 ERRORS = {"position": "object_position_error", "articulation": "object_articulation_error"}
 
+#: Variants left to right: the paper's, then the release designs in the order they were built (4-7).
+RELEASE_ORDER: tuple[str, ...] = (
+    *VARIANT_ORDER,
+    "release_reset",
+    "release",
+    "release_scheduled",
+    "release_backoff",
+)
+
 
 def error_kind(df: pd.DataFrame) -> str:
     """``position`` where the trials' position errors are not all zero, else ``articulation``."""
@@ -53,7 +62,7 @@ def release_table(df: pd.DataFrame) -> pd.DataFrame:
         at = good[good["task"] == task]
         kind = error_kind(at)
         col = ERRORS[kind]
-        for variant in ordered(at["variant"], VARIANT_ORDER):
+        for variant in ordered(at["variant"], RELEASE_ORDER):
             for fid in ordered(at.loc[at["variant"] == variant, "fidelity"], FIDELITY_ORDER):
                 g = at[(at["variant"] == variant) & (at["fidelity"] == fid)]
 
@@ -106,7 +115,7 @@ def paired_markdown(df: pd.DataFrame) -> str:
     ``release_reset`` and after), trials of one seed are the same until the planner first looks past the
     last contact, so a row is a before/after. Seeds that only one variant has are left out."""
     good = ok_trials(df)
-    variants = ordered(good["variant"], VARIANT_ORDER)
+    variants = ordered(good["variant"], RELEASE_ORDER)
     lines = ["| task | seed | " + " | ".join(variants) + " |", "|---|---|" + "---|" * len(variants)]
     for task in ordered(good["task"], TASK_ORDER):
         at = good[good["task"] == task]
@@ -146,13 +155,13 @@ def release_figure(df: pd.DataFrame, path: str | Path | None = None) -> Figure:
     """
     good = ok_trials(df)
     tasks = ordered(good["task"], TASK_ORDER)
-    fig = Figure(figsize=(3.2 * max(1, len(tasks)), 3.4), layout="constrained")
+    fig = Figure(figsize=(4.2 * max(1, len(tasks)), 3.8), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, max(1, len(tasks)), squeeze=False)[0]
     for ax, task in zip(axes, tasks, strict=False):
         at = good[good["task"] == task]
         col = ERRORS[error_kind(at)]
-        variants = ordered(at["variant"], VARIANT_ORDER)
+        variants = ordered(at["variant"], RELEASE_ORDER)
         for i, variant in enumerate(variants):
             g = at[at["variant"] == variant]
             err = 1e3 * pd.to_numeric(g[f"{col}_after_mean"], errors="coerce").to_numpy(float)
@@ -164,13 +173,13 @@ def release_figure(df: pd.DataFrame, path: str | Path | None = None) -> Figure:
                 x[done & ~clean], err[done & ~clean], facecolors="none", edgecolors="tab:red", zorder=3
             )
             ax.scatter(x[~done], err[~done], marker="x", color="tab:gray", zorder=3)
-        ax.set_xticks(range(len(variants)), variants, rotation=20)
+        ax.set_xticks(range(len(variants)), variants, rotation=30, ha="right")
         ax.set_yscale("log")
         ax.set_ylim(3, 3000)  # the same on every panel: millimetres to metres
         ax.set_yticks([3, 10, 30, 100, 300, 1000, 3000], ["3", "10", "30", "100", "300", "1000", "3000"])
         ax.minorticks_off()
         ax.set_title(task)
-        ax.set_ylabel("object error after the span (mm, mean)" if col == ERRORS["position"] else "x 1e-3")
+        ax.set_ylabel("error after the span (mm, mean)" if col == ERRORS["position"] else "x 1e-3")
         ax.grid(True, axis="y", alpha=0.3)
     handles = [
         Line2D([], [], ls="", marker="o", color="tab:green", label="finished cleanly"),
