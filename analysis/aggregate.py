@@ -33,7 +33,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis._cli import run, sweep_parser
-from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME, one_line
+from contactmpc.records import NO_DEFAULT, NOT_THE_TRIAL, RECORD_NAME, one_line, option_default
 
 SWEEP_MARKER = "multirun.yaml"  # Hydra writes it into the root of a multirun sweep
 
@@ -224,7 +224,13 @@ def read_record(path: str | Path) -> dict:
     if isinstance(config, dict):
         row[_CONFIG] = identity_config(config)
         labels = {k: data.get(k) for k in IDENTITY_LABELS}
-        text = json.dumps([labels, sorted(row[_CONFIG].items())], sort_keys=True, default=str)
+        # an option at its default is left out: a record that predates the option is the same trial
+        canonical = sorted(
+            (k, v)
+            for k, v in row[_CONFIG].items()
+            if json.dumps(v, default=str) != json.dumps(option_default(row[_CONFIG], k), default=str)
+        )
+        text = json.dumps([labels, canonical], sort_keys=True, default=str)
         row["trial_id"] = hashlib.sha1(text.encode()).hexdigest()[:12]
     return row
 
@@ -368,9 +374,20 @@ def add_conditions(df: pd.DataFrame) -> pd.DataFrame:
     varying: dict[str, None] = {}
     for _, group in df.groupby(["task", "variant"], dropna=False, sort=False):
         rows = [c if isinstance(c, dict) else {} for c in configs[group.index]]
+        every = set().union(*rows)
+        # a record made before an option existed lacks it: it ran the option's default
+        rows = [
+            {
+                **{
+                    k: _hashable(d) for k in every - r.keys() if (d := option_default(r, k)) is not NO_DEFAULT
+                },
+                **r,
+            }
+            for r in rows
+        ]
         keys = sorted(
             k
-            for k in set().union(*rows)
+            for k in every
             if k != "seed" and len({json.dumps(r.get(k, "<absent>"), default=str) for r in rows}) > 1
         )
         varying.update(dict.fromkeys(keys))

@@ -37,7 +37,8 @@ POINT_FILTER = {"task": "apple,bottle,stapler", "variant": "full,wrist_acquire"}
 #: The end of the paper tasks: fig3_paper's full method (the "before") beside variant=release_reset (the
 #: walked-in grip dropped at the last contact), variant=release (that, the release term, opening, waiting)
 #: variant=release_scheduled (release with no sampling after the last contact), in results/release, and
-#: variant=release_backoff (scheduled, open to the flat hand, the wrist backed off), in results/release_backoff.
+#: variant=release_backoff (scheduled, open to the flat hand, the wrist backed off), in
+#: results/release_backoff.
 RELEASE_DIRS = ("fig3_paper", "release_reset", "release", "release_backoff")
 RELEASE_FILTER = {
     "task": "apple,bottle",

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import inspect
 import json
 import os
 import platform
@@ -9,6 +11,7 @@ import secrets
 import subprocess
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -40,6 +43,45 @@ NOT_THE_TRIAL: tuple[str, ...] = (
 how fast it runs, what it shows. A trial's identity is its resolved config less these (and its seed):
 resuming (``launch.py``) and the analysis (``analysis.aggregate``) both compare configs this way."""
 SCHEMA_VERSION = 1
+
+NO_DEFAULT = object()
+"""What :func:`option_default` returns for a key that is no keyword option of a target."""
+
+
+def option_default(flat: dict[str, Any], key: str) -> Any:
+    """The default of the option ``key`` (dotted) of the config member that ``flat`` (a flattened
+    config) builds at the key's parent: the keyword default of the class or function its
+    ``<parent>._target_`` names, as a record stores it (a tuple as a list). A record made before an
+    option existed lacks the key; the option's default is what the code did then (a new option keeps
+    the old behaviour at its default), so a resume and the analysis read the absent key as it.
+
+    Returns:
+        the default, or :data:`NO_DEFAULT` where there is none (no target at the parent, a target
+        that cannot be found, or no such keyword with a default).
+    """
+    parent, _, name = key.rpartition(".")
+    target = flat.get(f"{parent}._target_") if parent else None
+    if not isinstance(target, str):
+        return NO_DEFAULT
+    text = _keyword_default(target, name)
+    return NO_DEFAULT if text is None else json.loads(text)
+
+
+@functools.lru_cache(maxsize=4096)
+def _keyword_default(target: str, name: str) -> str | None:
+    """The default of keyword ``name`` of the callable ``target`` names, as JSON text; ``None``: none."""
+    from contactmpc.config import locate  # imported here: config is not needed to write a record
+
+    try:
+        param = inspect.signature(locate(target)).parameters.get(name)
+    except (ImportError, TypeError, ValueError):
+        return None
+    if param is None or param.default is inspect.Parameter.empty:
+        return None
+    try:
+        return json.dumps(param.default)
+    except TypeError:
+        return None
 
 
 def _atomic_write(path: Path, write) -> None:

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME
+from contactmpc.records import NO_DEFAULT, NOT_THE_TRIAL, RECORD_NAME, option_default
 
 FINISHED = ("ok", "diverged")
 """Record statuses of a job that finished (a resume skips it)."""
@@ -91,6 +91,8 @@ def config_differences(stored: dict | None, new: dict) -> list[str]:
     """Where two resolved configs describe different trials: ``"key: new != stored"`` per dotted key.
 
     Keys in :data:`NOT_THE_TRIAL` are ignored; ``_target_`` keys come first, then the others in order.
+    A key one config lacks reads as its option's default (:func:`~contactmpc.records.option_default`:
+    a record made before the option existed is the same trial as one with the option at its default).
     A record without a config differs from every config.
     """
     if not isinstance(stored, dict):
@@ -100,12 +102,14 @@ def config_differences(stored: dict | None, new: dict) -> list[str]:
     def compared(key: str) -> bool:
         return not any(key == k or key.startswith(k + ".") for k in NOT_THE_TRIAL)
 
+    def value(flat: dict, k: str) -> Any:  # an option the stored record predates: its default
+        if k in flat:
+            return flat[k]
+        default = option_default(flat, k)
+        return _ABSENT if default is NO_DEFAULT else default
+
     keys = sorted(filter(compared, a.keys() | b.keys()), key=lambda k: (not k.endswith("_target_"), k))
-    return [
-        f"{k}: {_show(b.get(k, _ABSENT))} != {_show(a.get(k, _ABSENT))}"
-        for k in keys
-        if a.get(k, _ABSENT) != b.get(k, _ABSENT)
-    ]
+    return [f"{k}: {_show(value(b, k))} != {_show(value(a, k))}" for k in keys if value(a, k) != value(b, k)]
 
 
 def resume_decision(output_dir: Path, config: dict, resume: bool | str) -> tuple[str, str | None]:

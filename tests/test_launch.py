@@ -141,6 +141,34 @@ def test_config_differences_name_the_keys_that_change_the_trial():
     assert runs.config_differences(None, apple) == ["config: not in the record"]
 
 
+def test_a_record_made_before_an_option_existed_is_the_same_trial_at_the_option_s_default(tmp_path):
+    """A stored config that lacks a keyword option of a member's target (the record predates it) reads
+    as that option's default: the same trial where the new config has the default, a different one
+    where it does not (resume, and the analysis's condition columns)."""
+    from analysis.aggregate import RecordWarning, load_records
+
+    new = _config("task=apple")
+    old = json.loads(json.dumps(new))
+    for name in ("release_backoff", "release_backoff_window", "release_open_to"):
+        del old["sampler"][name], old["job"]["sampler"][name]  # the trial job's copy too
+    assert new["sampler"]["release_backoff_window"] == [0.5, 1.5]  # a tuple default, as JSON holds it
+    assert runs.config_differences(old, new) == []
+    backed = _config("task=apple", "sampler.release_backoff=0.08")
+    assert runs.config_differences(old, backed) == [
+        "job.sampler.release_backoff: 0.08 != 0.0",
+        "sampler.release_backoff: 0.08 != 0.0",
+    ]
+    # a key that is no option of the target at its parent still differs
+    assert runs.config_differences({**old, "extra": 1}, new) == ["extra: <absent> != 1"]
+    for i, (name, config) in enumerate((("old", old), ("new", new), ("backed", backed))):
+        record = {"task": "apple", "variant": "full", "seed": 0, "status": "ok", "config": config}
+        write_json(tmp_path / name / "trial.json", record)
+        os.utime(tmp_path / name / "trial.json", (1000 + i, 1000 + i))
+    with pytest.warns(RecordWarning, match="recorded 2 times: keeping the newest, .*new"):
+        df = load_records(tmp_path)  # old and new are one trial: the newer kept
+    assert sorted(df["condition"]) == ["sampler.release_backoff=0.0", "sampler.release_backoff=0.08"]
+
+
 def test_resume_decision(tmp_path):
     apple, bottle = _config("task=apple"), _config("task=bottle")
     assert runs.resume_decision(tmp_path, apple, True) == ("run", None)
