@@ -113,6 +113,30 @@ def release_lite_block(root: Path = RESULTS) -> str:
     )
 
 
+def release_flat_block(root: Path = RESULTS) -> str:
+    """Design 8 (``variant=release_flat``: design 6 opening to the flat hand) beside the full method and
+    design 7 on the same seeds: the paper apple and bottle (``results/fig3_paper``,
+    ``results/release_backoff``) and the synthetic doorknob (``results/release_lite``). Design 8's
+    records (``results/release_flat``, ``results/release_flat_lite``) were made as
+    ``variant=release_backoff sampler.release_backoff=0``, which behaves as ``variant=release_flat``
+    (with no back-off its window is unused): they are shown as ``release_flat``."""
+    flat = paper_fig3.load(root / "release_flat", root / "release_flat_lite").assign(variant="release_flat")
+    paper = select(
+        paper_fig3.load(*_dirs(("fig3_paper", "release_backoff"), root)),
+        task="apple,bottle",
+        variant="full,release_backoff",
+        fidelity="paper",
+    )
+    door = select(paper_fig3.load(root / "release_lite"), variant="full,release_backoff")
+    df = pd.concat([paper, door, flat], ignore_index=True)
+    return (
+        release.markdown(release.release_table(df))
+        + "\nPer seed (object error after the span: mm, or x 1e-3 rad on the doorknob; clean = finished"
+        " cleanly, done = completed but not settled, failed = not completed):\n\n"
+        + release.paired_markdown(df)
+    )
+
+
 #: name -> (what makes it, the command the begin marker states, the figure it draws or ``None``)
 BLOCKS: dict[str, tuple[Callable[..., str], str, str | None]] = {
     "fig3_paper": (fig3_block, "python -m analysis.paper_fig3 results/fig3_paper", FIG3_IMAGE),
@@ -129,6 +153,12 @@ BLOCKS: dict[str, tuple[Callable[..., str], str, str | None]] = {
         RELEASE_IMAGE,
     ),
     "release_lite": (release_lite_block, "python -m analysis.release results/release_lite", None),
+    "release_flat": (
+        release_flat_block,
+        "python -m analysis.release results/release_flat results/release_flat_lite (shown as variant"
+        " release_flat) beside results/fig3_paper, results/release_backoff and results/release_lite",
+        None,
+    ),
 }
 
 
