@@ -33,7 +33,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis._cli import run, sweep_parser
-from contactmpc.records import NO_DEFAULT, NOT_THE_TRIAL, RECORD_NAME, one_line, option_default
+from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME, one_line, option_default, with_defaults
 
 SWEEP_MARKER = "multirun.yaml"  # Hydra writes it into the root of a multirun sweep
 
@@ -376,15 +376,7 @@ def add_conditions(df: pd.DataFrame) -> pd.DataFrame:
         rows = [c if isinstance(c, dict) else {} for c in configs[group.index]]
         every = set().union(*rows)
         # a record made before an option existed lacks it: it ran the option's default
-        rows = [
-            {
-                **{
-                    k: _hashable(d) for k in every - r.keys() if (d := option_default(r, k)) is not NO_DEFAULT
-                },
-                **r,
-            }
-            for r in rows
-        ]
+        rows = [with_defaults(r, every) for r in rows]
         keys = sorted(
             k
             for k in every

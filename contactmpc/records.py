@@ -9,6 +9,7 @@ import os
 import platform
 import secrets
 import subprocess
+from collections.abc import Iterable
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -65,6 +66,17 @@ def option_default(flat: dict[str, Any], key: str) -> Any:
         return NO_DEFAULT
     text = _keyword_default(target, name)
     return NO_DEFAULT if text is None else json.loads(text)
+
+
+def with_defaults(flat: dict[str, Any], keys: Iterable[str]) -> dict[str, Any]:
+    """``flat`` (a flattened config) plus, for each of ``keys`` it lacks, that option's default
+    (:func:`option_default`) where it has one: a record read as if it had been made with every option
+    that exists now."""
+    out = dict(flat)
+    for key in keys:
+        if key not in out and (default := option_default(flat, key)) is not NO_DEFAULT:
+            out[key] = default
+    return out
 
 
 @functools.lru_cache(maxsize=4096)

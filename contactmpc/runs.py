@@ -14,7 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from contactmpc.records import NO_DEFAULT, NOT_THE_TRIAL, RECORD_NAME, option_default
+from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME, with_defaults
 
 FINISHED = ("ok", "diverged")
 """Record statuses of a job that finished (a resume skips it)."""
@@ -102,14 +102,13 @@ def config_differences(stored: dict | None, new: dict) -> list[str]:
     def compared(key: str) -> bool:
         return not any(key == k or key.startswith(k + ".") for k in NOT_THE_TRIAL)
 
-    def value(flat: dict, k: str) -> Any:  # an option the stored record predates: its default
-        if k in flat:
-            return flat[k]
-        default = option_default(flat, k)
-        return _ABSENT if default is NO_DEFAULT else default
-
+    a, b = with_defaults(a, b), with_defaults(b, a)  # an option the stored record predates: its default
     keys = sorted(filter(compared, a.keys() | b.keys()), key=lambda k: (not k.endswith("_target_"), k))
-    return [f"{k}: {_show(value(b, k))} != {_show(value(a, k))}" for k in keys if value(a, k) != value(b, k)]
+    return [
+        f"{k}: {_show(b.get(k, _ABSENT))} != {_show(a.get(k, _ABSENT))}"
+        for k in keys
+        if a.get(k, _ABSENT) != b.get(k, _ABSENT)
+    ]
 
 
 def resume_decision(output_dir: Path, config: dict, resume: bool | str) -> tuple[str, str | None]:
