@@ -16,7 +16,7 @@ import numpy as np
 
 from contactmpc.hands.base import Hand
 from contactmpc.tasks.base import Task
-from contactmpc.validate import Gt, checked
+from contactmpc.validate import Ge, Gt, checked
 
 
 class SceneError(RuntimeError):
@@ -55,6 +55,10 @@ class SceneIndex:
         object_geom_mask: (ngeom,) True for geoms that belong to the object (object bodies and
             their descendants).
         link_of_geom: (ngeom,) index into the links of the hand link owning each geom, -1 if none.
+        link_object_dist: (L, G) sensordata address of the distance between each link's collision geom
+            and each of the object bodies' ``G`` colliding geoms (``geomdist`` sensors, up to the scene's
+            ``link_distance_cutoff``); (L, 0) when the scene has none.
+        dist_object_body: (G,) index into ``object_bodies`` of each of those geoms' body.
     """
 
     hand_qpos: np.ndarray
@@ -77,6 +81,8 @@ class SceneIndex:
     object_body_mask: np.ndarray
     object_geom_mask: np.ndarray
     link_of_geom: np.ndarray
+    link_object_dist: np.ndarray
+    dist_object_body: np.ndarray
 
     @classmethod
     def resolve(cls, m: mujoco.MjModel, hand: Hand, task: Task) -> SceneIndex:
@@ -133,6 +139,7 @@ class SceneIndex:
             object_body_mask=is_object,
             object_geom_mask=is_object[m.geom_bodyid],
             link_of_geom=link_index[m.geom_bodyid],
+            **_link_object_dist(m, hand, obj),
         )
 
 
@@ -205,6 +212,38 @@ def set_options(opt: mujoco.MjOption, options: dict[str, Any], what: str = "scen
             raise SceneError(f"{what}: {key}={value!r}: {err}") from err
 
 
+def _link_object_dist(m: mujoco.MjModel, hand: Hand, bodies: np.ndarray) -> dict[str, np.ndarray]:
+    """The addresses of the ``<link geom>__<object geom>_dist`` sensors (none: (L, 0), (0,))."""
+    geoms = colliding_geoms(m, bodies)
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in geoms]
+    if (
+        not names
+        or mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, f"{hand.link_geoms[0]}__{names[0]}_dist") < 0
+    ):
+        return {
+            "link_object_dist": np.zeros((len(hand.link_geoms), 0), int),
+            "dist_object_body": np.zeros(0, int),
+        }
+    adr = [[_sensor_adr(m, f"{lg}__{n}_dist", 1)[0] for n in names] for lg in hand.link_geoms]
+    at = {int(b): i for i, b in enumerate(bodies)}
+    body = [at[int(m.geom_bodyid[g])] for g in geoms]
+    return {"link_object_dist": np.array(adr, int), "dist_object_body": np.asarray(body, int)}
+
+
+def colliding_geoms(m: mujoco.MjModel, bodies: Sequence[int]) -> np.ndarray:
+    """(G,) ids of the geoms of ``bodies`` that can collide (``contype`` or ``conaffinity`` set), in
+    ``bodies`` order, then geom order."""
+    return np.array(
+        [
+            g
+            for b in bodies
+            for g in range(m.ngeom)
+            if m.geom_bodyid[g] == b and (m.geom_contype[g] or m.geom_conaffinity[g])
+        ],
+        int,
+    )
+
+
 def _sensor_adr(model: mujoco.MjModel, name: str, width: int) -> np.ndarray:
     adr = model.sensor_adr[ids(model, mujoco.mjtObj.mjOBJ_SENSOR, [name], "sensor")[0]]
     return np.arange(adr, adr + width)
@@ -228,6 +267,9 @@ class Scene:
             ``jacobian``, ``solver``). Default :data:`FREE_PLANNER_OPTIONS`, the savings that cost no
             agreement; ``{}`` or ``None``: the planning model differs from the plant only in its
             timestep.
+        link_distance_cutoff: > 0 adds one ``geomdist`` sensor per (hand link, object body): the
+            distance between their geoms, read up to this cutoff (m), for the cost's surface term
+            (``cost.surface_weight``); 0 (default) adds none. Sensors do not act on the physics.
 
     Raises:
         SceneError: if the scene does not compile or a name does not resolve.
@@ -245,6 +287,7 @@ class Scene:
         impratio: Annotated[float, Gt(0)] = 10.0,
         hand_root: tuple[float, float, float] = (0.0, 0.0, 0.0),
         planner_options: dict[str, Any] | None = FREE_PLANNER_OPTIONS,
+        link_distance_cutoff: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         if not 0 < plant_timestep <= planner_timestep:
             raise SceneError(
@@ -291,6 +334,7 @@ class Scene:
                 )
             task.add_to(self.spec)
             self._add_hand_object_contact()
+            self._add_link_distance(link_distance_cutoff)
             self.plant_model = self._compile(plant_timestep)
             self.planner_model = self._compile(planner_timestep)
             self.planner_options = dict(planner_options or {})
@@ -322,6 +366,29 @@ class Scene:
                 refname=name,
                 intprm=[1, 0, 1],  # data: found; reduce: none; num: 1
             )
+
+    def _add_link_distance(self, cutoff: float) -> None:
+        """``<link geom>__<object geom>_dist``: the distance between a hand link's collision geom and one
+        colliding geom of an object body (``mj_geomDistance``; negative when they overlap), read up to
+        ``cutoff`` (m); none at 0. The object's geoms come from a first compile of the spec."""
+        if cutoff <= 0.0:
+            return
+        m = self.spec.compile()
+        bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in self.task.object_bodies]
+        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in colliding_geoms(m, bodies)]
+        if any(not n for n in names):
+            raise SceneError(f"task {self.task.name!r}: the surface distance needs every object geom named")
+        for link_geom in self.hand.link_geoms:
+            for name in names:
+                self.spec.add_sensor(
+                    name=f"{link_geom}__{name}_dist",
+                    type=mujoco.mjtSensor.mjSENS_GEOMDIST,
+                    objtype=mujoco.mjtObj.mjOBJ_GEOM,
+                    objname=link_geom,
+                    reftype=mujoco.mjtObj.mjOBJ_GEOM,
+                    refname=name,
+                    cutoff=cutoff,
+                )
 
     def _add_look(self) -> None:
         """Skybox and a checkered floor material (``floor_mat``) that tasks may use."""

@@ -77,3 +77,90 @@ def test_object_only_cost_has_no_contact_term(scene_for):
     sd = np.zeros((2, 5, scene.planner_model.nsensordata))
     sd[..., scene.index.object_qo[3]] = 1.0  # unit quaternions
     assert np.all(cost(sd, track.window(0.0, 5))["contact"] == 0.0)
+
+
+@pytest.mark.parametrize("task", ["stapler", "doorknob"])
+def test_surface_and_clearance_terms_match_geom_distance(scene_for, task):
+    """The surface and clearance terms from the scene's geomdist sensors against ``mj_geomDistance`` per
+    state. Surface: each expected link's smallest distance to the geoms of the object body its contact is
+    expected on, clipped at 0 from below, squared and summed. Clearance: each link whose first expected
+    contact is still to come, ``max(clearance - d, 0)^2`` with ``d`` its distance to the nearest object
+    geom. Both weighted by ``lambda_c`` times their own weight."""
+    cutoff, clearance = 0.05, 0.03
+    scene = scene_for(task, f"scene.link_distance_cutoff={cutoff}")
+    m = scene.planner_model
+    idx = scene.index
+    assert idx.link_object_dist.shape[0] == len(idx.link_bodies) and idx.link_object_dist.shape[1] > 0
+    ref = static_reference(scene, active_links=21)
+    rng = np.random.default_rng(5)
+    ref.contact_active[:] = rng.random(ref.contact_active.shape) < 0.5
+    ref.contact_active[:, :3] = False  # never expected: kept clear throughout
+    ref.contact_active[: len(ref.contact_active) // 2, 3:8] = False  # first expected halfway
+    ref.contact_object_body[:] = rng.integers(0, len(scene.task.object_bodies), ref.contact_object_body.shape)
+    track = ReferenceTrack.build(ref, scene.task.layout, scene.task.time_scale, m.opt.timestep, 1.0)
+    cost = TrackingCost(lambda_c=2.0, surface_weight=3.0, clearance_weight=5.0, clearance=clearance)
+    cost.bind(scene, track)
+
+    data = scene.make_data(m)
+    x0 = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, data, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    S, H = 3, 20
+    ctrl = scene.task.hand_home + rng.normal(0, 0.3, (S, H, m.nu))
+    with RolloutEngine(m, nthread=1) as engine:
+        state, sensordata, _ = engine.run(x0, ctrl)
+    window = track.window(0.3, H)
+    surface = cost.surface_term(sensordata, window)
+    clear = cost.clearance_term(sensordata, window)
+    terms = cost(sensordata, window)
+    np.testing.assert_array_equal(terms["surface"], 2.0 * 3.0 * surface)
+    np.testing.assert_array_equal(terms["clearance"], 2.0 * 5.0 * clear)
+
+    geoms = [
+        g
+        for g in range(m.ngeom)
+        if m.geom_bodyid[g] in idx.object_bodies and (m.geom_contype[g] or m.geom_conaffinity[g])
+    ]
+    active = track.contact_active
+    first = [
+        int(np.argmax(active[:, k])) if active[:, k].any() else len(active) for k in range(active.shape[1])
+    ]
+    fromto = np.zeros(6)
+    distances, clear_pairs = [], 0
+    for s in range(S):
+        for h in (1, 7, H - 1):
+            mujoco.mj_setState(m, data, state[s, h - 1], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+            mujoco.mj_forward(m, data)
+            g = window.start + h
+            direct_surface = direct_clear = 0.0
+            for link in range(active.shape[1]):
+                dist = {
+                    o: mujoco.mj_geomDistance(m, data, idx.link_geoms[link], o, cutoff, fromto) for o in geoms
+                }
+                if active[g, link]:
+                    body = idx.object_bodies[track.contact_object_body[g, link]]
+                    d = min(v for o, v in dist.items() if m.geom_bodyid[o] == body)
+                    distances.append(d)
+                    direct_surface += max(d, 0.0) ** 2
+                if g < first[link]:
+                    clear_pairs += 1
+                    direct_clear += max(clearance - min(dist.values()), 0.0) ** 2
+            assert surface[s, h] == pytest.approx(direct_surface, rel=1e-9, abs=1e-15)
+            assert clear[s, h] == pytest.approx(direct_clear, rel=1e-9, abs=1e-15)
+    assert min(distances) < cutoff  # some link within the cutoff: not every distance saturated
+    assert clear_pairs > 0 and clear.max() > 0.0  # some link not yet expected within the margin
+
+
+def test_surface_term_needs_the_distance_sensors(scene_for):
+    """Without ``scene.link_distance_cutoff`` the scene has no distance sensors (the model is the
+    default one), and a cost with a surface term refuses it, naming the option."""
+    scene = scene_for("stapler")
+    assert scene.index.link_object_dist.shape == (len(scene.index.link_bodies), 0)
+    with_sensors = scene_for("stapler", "scene.link_distance_cutoff=0.05")
+    assert with_sensors.plant_model.nsensor > scene.plant_model.nsensor
+    ref = static_reference(scene)
+    track = ReferenceTrack.build(
+        ref, scene.task.layout, scene.task.time_scale, scene.planner_model.opt.timestep, 1.0
+    )
+    TrackingCost().bind(scene, track)  # no surface term: fine
+    with pytest.raises(ValueError, match="scene.link_distance_cutoff"):
+        TrackingCost(surface_weight=1.0).bind(scene, track)

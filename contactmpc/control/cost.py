@@ -9,8 +9,15 @@ over the links whose contact is expected at that reference time, the squared wor
 between the link's contact point and the corresponding point on the object. The optional *release*
 term (not the paper's; ``release_weight`` > 0) is the contact term's complement after the reference
 has let go: once the reference's last expected contact has passed, every hand-object contact ``n_c``
-costs as much as ``release_weight`` m^2 of squared object position error. Every input comes from the
-rollout's ``sensordata``, so no Python runs per simulated step.
+costs as much as ``release_weight`` m^2 of squared object position error. Two optional terms (not the
+paper's either) read the scene's link-object distances (``geomdist`` sensors, ``d_l`` the distance from
+link ``l``'s collision geom to the nearest object geom): the *surface* term (``surface_weight`` > 0),
+``lambda_c * surface_weight * sum_{l in A(t)} max(d_l, 0)^2``, pulls every expected link onto the
+object's surface wherever it touches it, not only at the reference's point; the *clearance* term
+(``clearance_weight`` > 0), ``lambda_c * clearance_weight * sum_{l before its first contact}
+max(clearance - d_l, 0)^2``, keeps each link off the object until the reference first expects that
+link's contact, so a finger does not tap the object over before the grasp it belongs to. Every input
+comes from the rollout's ``sensordata``, so no Python runs per simulated step.
 """
 
 from __future__ import annotations
@@ -91,6 +98,13 @@ class TrackingCost:
         release_weight: the release term's weight (m^2 of squared object position error per hand-object
             contact, so it is weighted by ``lambda_o`` too), on the steps after the reference's last
             expected contact; 0 (the paper) leaves the hand free to touch the object there.
+        surface_weight: the surface term's weight relative to the contact term's (so it is weighted by
+            ``lambda_c`` too): the squared distance (m^2) from each expected link to the object's surface;
+            needs the scene's distance sensors (``scene.link_distance_cutoff`` > 0). 0: the paper.
+        clearance_weight: the clearance term's weight relative to the contact term's: the squared depth
+            (m^2) by which a link comes within ``clearance`` of the object before the reference first
+            expects that link's contact (the same sensors). 0: the paper.
+        clearance: the margin (m) of the clearance term.
 
     The authors' weights (``task_template.xml``: object position 1000, orientation 10, contact 5000,
     hand velocity 1, each ``0.5 w |r|^2``) are ``lambda_o = 500``, ``rotation_weight = 0.01``,
@@ -98,7 +112,7 @@ class TrackingCost:
     residual (``mju_subQuat``) is the rotation vector, so ``|r|^2`` is the squared angle, as ours.
     """
 
-    terms = ("object", "contact", "velocity", "release")
+    terms = ("object", "contact", "velocity", "release", "surface", "clearance")
 
     @checked
     def __init__(
@@ -111,8 +125,14 @@ class TrackingCost:
         velocity_joints: Annotated[str, OneOf("all", "fingers")] = "all",
         contact_subset: Annotated[str, OneOf("expected", "authors_code")] = "expected",
         release_weight: Annotated[float, Ge(0)] = 0.0,
+        surface_weight: Annotated[float, Ge(0)] = 0.0,
+        clearance_weight: Annotated[float, Ge(0)] = 0.0,
+        clearance: Annotated[float, Ge(0)] = 0.01,
     ) -> None:
+        self.clearance_weight = float(clearance_weight)
+        self.clearance = float(clearance)
         self.release_weight = float(release_weight)
+        self.surface_weight = float(surface_weight)
         self.lambda_o = float(lambda_o)
         self.lambda_c = float(lambda_c)
         self.lambda_v = float(lambda_v)
@@ -129,8 +149,15 @@ class TrackingCost:
 
         Raises:
             ValueError: ``contact_subset="authors_code"`` for a reference without the authors' contact
-                order (``meta["paper_code_contacts"]``).
+                order (``meta["paper_code_contacts"]``); ``surface_weight`` or ``clearance_weight`` > 0
+                in a scene without distance sensors.
         """
+        for name in ("surface_weight", "clearance_weight"):
+            if getattr(self, name) > 0.0 and scene.index.link_object_dist.shape[1] == 0:
+                raise ValueError(
+                    f"cost.{name} > 0 needs the scene's link-object distance sensors: set "
+                    "scene.link_distance_cutoff > 0 (e.g. 0.05)"
+                )
         self.scene = scene
         self.track = track
         self._qo = as_index(scene.index.object_qo)
@@ -142,6 +169,9 @@ class TrackingCost:
         if expected.size:
             self._release[expected[-1] + 1 :] = True
         self._found = scene.index.hand_object_contact
+        n = len(track.contact_active)
+        first = np.where(track.contact_active.any(axis=0), track.contact_active.argmax(axis=0), n)  # (L,)
+        self._before_first = np.arange(n)[:, None] < first[None, :]  # (N, L) link not yet expected
         if self.contact_subset == "authors_code":
             links = None if reference is None else reference.meta.get("paper_code_contacts")
             if links is None:
@@ -192,6 +222,50 @@ class TrackingCost:
         )
         return out
 
+    def surface_term(self, sensordata: np.ndarray, window: slice) -> np.ndarray:
+        """Unweighted surface term: ``sum_l active_l * max(d_l, 0)^2`` over the expected links ``l``,
+        ``d_l`` the smallest distance between the link's collision geom and the geoms of the object body
+        its contact is expected on (read up to the scene's cutoff).
+
+        Args:
+            sensordata: (S, H, nsensordata) with H equal to the window's length.
+            window: grid slice of the reference track.
+
+        Returns:
+            (S, H) surface term.
+        """
+        idx = self.scene.index
+        out = np.zeros(sensordata.shape[:2])
+        h, link = np.nonzero(self._active[window])
+        if h.size == 0:
+            return out
+        body = self.track.contact_object_body[window][h, link]  # (P,)
+        dist = sensordata[:, h[:, None], idx.link_object_dist[link]]  # (S, P, G)
+        on_body = idx.dist_object_body[None, :] == body[:, None]  # (P, G)
+        d = np.where(on_body, dist, np.inf).min(axis=-1)  # (S, P)
+        np.add.at(out.T, h, (np.maximum(d, 0.0) ** 2).T)
+        return out
+
+    def clearance_term(self, sensordata: np.ndarray, window: slice) -> np.ndarray:
+        """Unweighted clearance term: ``sum_l max(clearance - d_l, 0)^2`` over the links ``l`` whose first
+        expected contact (in the reference) is still to come, ``d_l`` the link's smallest distance to any
+        object geom.
+
+        Args:
+            sensordata: (S, H, nsensordata) with H equal to the window's length.
+            window: grid slice of the reference track.
+
+        Returns:
+            (S, H) clearance term.
+        """
+        out = np.zeros(sensordata.shape[:2])
+        h, link = np.nonzero(self._before_first[window])
+        if h.size == 0:
+            return out
+        d = sensordata[:, h[:, None], self.scene.index.link_object_dist[link]].min(axis=-1)  # (S, P)
+        np.add.at(out.T, h, (np.maximum(self.clearance - d, 0.0) ** 2).T)
+        return out
+
     def __call__(self, sensordata: np.ndarray, window: slice) -> dict[str, np.ndarray]:
         """Weighted cost terms per sample and step.
 
@@ -200,7 +274,8 @@ class TrackingCost:
             window: the reference-track slice of the same H steps.
 
         Returns:
-            dict of the weighted terms ``object``, ``contact``, ``velocity``, each (S, H).
+            dict of the weighted terms ``object``, ``contact``, ``velocity``, ``release``, ``surface``,
+            ``clearance``, each (S, H).
         """
         tr = self.track
         err = self.scene.task.layout.error(self.object_qpos(sensordata), tr.object_qpos[window])
@@ -213,9 +288,17 @@ class TrackingCost:
         if self.release_weight > 0.0:
             found = sensordata[..., self._found].sum(axis=-1)
             release = self.lambda_o * self.release_weight * found * self._release[window]
+        surface = np.zeros_like(obj)
+        if self.surface_weight > 0.0:
+            surface = self.lambda_c * self.surface_weight * self.surface_term(sensordata, window)
+        clearance = np.zeros_like(obj)
+        if self.clearance_weight > 0.0:
+            clearance = self.lambda_c * self.clearance_weight * self.clearance_term(sensordata, window)
         return {
             "object": self.lambda_o * obj,
             "contact": self.lambda_c * con,
             "velocity": self.lambda_v * vel,
             "release": release,
+            "surface": surface,
+            "clearance": clearance,
         }
