@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -65,6 +66,7 @@ def diagnose(
     failure_time: float | None = None,
     milestones: dict[str, float | bool] | None = None,
     completed: bool | None = None,
+    names: Sequence[str] | None = None,
     gap: float = 0.3,
     min_expected: int = 6,
     position_threshold: float = POSITION_THRESHOLD,
@@ -73,10 +75,13 @@ def diagnose(
     """What went wrong in a trial, first thing first.
 
     Problems, each at an instant: no contact ever; a first touch ``gap`` or more after the first expected;
-    the TTF failure (the hand lost its last contact); a contact gap of ``gap`` or more the failure rule
-    let pass (too few links expected); the position or rotation error over its threshold for ``gap`` (by
-    the heights: a drop, an object not lifted, or one off the reference). The earliest is the first line
-    (``first: ...``), the others follow (``then: ...``), or all are ``note: ...`` under ``completed``.
+    links touching the object for ``gap`` or more before the reference first expects them (an early
+    touch, e.g. a finger tapping the object over before its grasp; one line for all such links, at the
+    first); the TTF failure (the hand lost its last contact); a contact gap of ``gap`` or more the
+    failure rule let pass (too few links expected); the position or rotation error over its threshold
+    for ``gap`` (by the heights: a drop, an object not lifted, or one off the reference). The earliest is
+    the first line (``first: ...``), the others follow (``then: ...``), or all are ``note: ...`` under
+    ``completed``.
 
     Args:
         time: (N,) sample times (s).
@@ -88,6 +93,7 @@ def diagnose(
         failure_time: the TTF failure instant (s), None when the rule did not fire.
         milestones: name -> instant it was reached (s), True (reached, instant unknown) or False.
         completed: whether the task was completed; None leaves the outcome line out.
+        names: (L,) the links' names for the early-touch line; None: ``link <index>``.
         gap, min_expected: the failure rule's (``job.failure_gap``, ``job.failure_min_expected``).
         position_threshold: position error (m) that counts as losing the object.
         rotation_threshold: rotation error (rad) that counts as losing the object's orientation.
@@ -125,6 +131,17 @@ def diagnose(
                 few = bool(n_exp[a:b].min() <= min_expected)  # else the rule would have fired
                 problems.append((t[a], text + f" (the failure rule needs > {min_expected})" * few))
                 break
+    early = []  # (start, link, seconds touching before its first expected contact)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    for k in range(touch.shape[1]):
+        first = int(np.argmax(exp[:, k])) if exp[:, k].any() else len(t)
+        if (i := first_run(touch[:first, k], t[:first], gap)) is not None:
+            early.append((i, k, touch[:first, k].sum() * dt))
+    if early:
+        early.sort()
+        label = (lambda k: names[k]) if names is not None else (lambda k: f"link {k}")
+        parts = ", ".join(f"{label(k)} from {_at(t[i])} ({sec:.1f} s)" for i, k, sec in early)
+        problems.append((t[early[0][0]], f"touched before expected: {parts}"))
     checks = {"position": (position_error, position_threshold)}
     checks["rotation"] = (rotation_error, rotation_threshold)
     for name, (error, limit) in checks.items():
@@ -349,7 +366,7 @@ def timeline(run_dir: str | Path, png: str | Path, **thresholds: float) -> tuple
     facts = evidence(record, series)
     span = facts.pop("span")
     columns = [series.get(k) for k in ("time", "contacts", "expected_contacts", "object_position_error")]
-    lines = diagnose(*columns, milestones=milestones, **facts, **thresholds)
+    lines = diagnose(*columns, milestones=milestones, names=names, **facts, **thresholds)
     ttf, label = record.get("ttf"), record.get("variant") or record.get("planner")
     head = f"{record.get('task')} / {label} / seed {record.get('seed')}: status {record.get('status')}, "
     head += f"TTF {'n/a' if ttf is None else f'{ttf:.2f}'}, completed {facts['completed']}"

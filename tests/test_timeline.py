@@ -207,3 +207,20 @@ def test_milestone_flags_without_a_task() -> None:
     )
     assert milestones == {"lifted": True, "turned": False}
     assert note == "milestone instants unknown (TypeError: not in the record's config)"
+
+
+def test_a_link_touching_before_its_first_expected_contact() -> None:
+    """An early touch (a finger on the object for 0.3 s or more before the reference first expects it)
+    is a problem at its start, named by link, with the time it touched early in all; a shorter one is not."""
+    exp = expected_grasp()  # links 0-10 expected from 2 s
+    touch = exp.copy()
+    touch[(T >= 1.0 - 1e-9) & (T < 1.5 - 1e-9), 4] = True  # link 4 for 0.5 s, 1 s before its contact
+    touch[(T >= 1.2 - 1e-9) & (T < 1.35 - 1e-9), 7] = True  # link 7 for 0.15 s: too short to count
+    names = [f"l{k}" for k in range(exp.shape[1])]
+    lines = diagnose(T, touch, exp, np.zeros(len(T)), names=names, completed=True)
+    assert lines == ["completed", "note: touched before expected: l4 from t=1.00 s (0.5 s)"]
+    assert (
+        diagnose(T, touch, exp, completed=False)[0]
+        == "first: touched before expected: link 4 from t=1.00 s (0.5 s)"
+    )
+    assert diagnose(T, exp, exp, completed=True) == ["completed"]
