@@ -31,9 +31,10 @@ RELEASE_IMAGE = "analysis/images/release_paper.png"
 
 #: The operating-point map's records: the map's own sweep, the chosen point's full-method trials of
 #: fig3_paper (the apple and bottle at 32 samples, paper_32samples = s32 on the paper point) and the
-#: stapler with the wrist sampled while contact is acquired at that point.
+#: stapler with the wrist sampled while contact is acquired at that point, without and with the clearance
+#: term (variant=wrist_clearance, results/stapler_clearance; at the paper point in operating_point).
 POINT_DIRS = ("operating_point", "fig3_paper", "stapler_wrist_32samples", "stapler_clearance")
-POINT_FILTER = {"task": "apple,bottle,stapler", "variant": "full,wrist_acquire,clearance,wrist_clearance"}
+POINT_FILTER = {"task": "apple,bottle,stapler", "variant": "full,wrist_acquire,wrist_clearance"}
 #: The end of the paper tasks: fig3_paper's full method (the "before") beside variant=release_reset (the
 #: walked-in grip dropped at the last contact), variant=release (that, the release term, opening, waiting)
 #: variant=release_scheduled (release with no sampling after the last contact), in results/release, and
