@@ -23,6 +23,7 @@ import pandas as pd
 
 from analysis import operating_point, paper_fig3, release
 from analysis.aggregate import select
+from contactmpc.records import one_line
 
 REPO = Path(__file__).resolve().parent.parent
 RESULTS = REPO / "results"
@@ -175,15 +176,18 @@ def rewrite(readme: str, name: str, body: str) -> str:
     return readme[:a] + marker + "\n" + body + end + readme[b:]
 
 
-def made(readme: str, root: Path = RESULTS, draw: bool = False) -> str:
+def made(readme: str, root: Path = RESULTS, draw: bool = False, skipped: list[str] | None = None) -> str:
     """``readme`` with every block re-made from the records under ``root`` (blocks whose records are
-    absent are left as they are). ``draw`` also re-draws the figures."""
+    absent, or that cannot be made from them, are left as they are, each with its reason appended to
+    ``skipped``). ``draw`` also re-draws the figures."""
     for name, (make, _, image) in BLOCKS.items():
         rewrite(readme, name, "")  # the README must have the block, records or not
         try:
             body = make(root, REPO / image) if (draw and image) else make(root)
-        except (ValueError, FileNotFoundError):
-            continue  # its records are not here: the block stays as it is
+        except (ValueError, FileNotFoundError) as err:
+            if skipped is not None:  # e.g. its records are not here: the block stays as it is
+                skipped.append(f"{name}: {one_line(err)}")
+            continue
         readme = rewrite(readme, name, body)
     return readme
 
@@ -196,7 +200,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     path = REPO / "README.md"
     old = path.read_text()
-    new = made(old, draw=not args.check)
+    skipped: list[str] = []
+    new = made(old, draw=not args.check, skipped=skipped)
+    for line in skipped:
+        print(f"not re-made (left as it is): {line}", file=sys.stderr)
     if args.check:
         stale = old != new
         print("README blocks are " + ("stale: run python -m analysis.readme_blocks" if stale else "current"))
