@@ -267,9 +267,10 @@ class Scene:
             ``jacobian``, ``solver``). Default :data:`FREE_PLANNER_OPTIONS`, the savings that cost no
             agreement; ``{}`` or ``None``: the planning model differs from the plant only in its
             timestep.
-        link_distance_cutoff: > 0 adds one ``geomdist`` sensor per (hand link, object body): the
-            distance between their geoms, read up to this cutoff (m), for the cost's surface term
-            (``cost.surface_weight``); 0 (default) adds none. Sensors do not act on the physics.
+        link_distance_cutoff: > 0 adds one ``geomdist`` sensor per (hand link collision geom, colliding
+            geom of an object body): the distance between them, read up to this cutoff (m), for the
+            cost's surface and clearance terms (``cost.surface_weight``, ``cost.clearance_weight``); 0
+            (default) adds none. Sensors do not act on the physics.
 
     Raises:
         SceneError: if the scene does not compile or a name does not resolve.
