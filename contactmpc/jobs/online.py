@@ -1,6 +1,6 @@
 """The online job (``conf/job/online.yaml``): the controller live, in wall-clock time, optionally watched.
 
-The trial job's problem, planner, plant and record (:mod:`contactmpc.jobs.trial`), run by
+The trial job's inputs, trial, plant and record (:mod:`contactmpc.jobs.common`), run by
 :class:`~contactmpc.online.OnlineLoop` instead of the synchronous :meth:`~contactmpc.trial.Trial.run`:
 the plant at ``slowdown`` x real time in this thread, the planner replanning continuously in another.
 The record has the trial's fields plus the online timing (:meth:`~contactmpc.online.OnlineLoop.summary`).

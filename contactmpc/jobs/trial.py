@@ -59,10 +59,8 @@ def run_trial(
         video: ``"gif"`` or ``"mp4"`` to render the trial next to its record (``trial.<ext>``);
             ``None`` renders nothing.
         video_speed: playback speed of the video relative to control time.
-        perturbation: plant-only changes drawn from the seed (:mod:`contactmpc.perturbations`); the
-            drawn values go into the record (``perturbation``). ``None``: none.
         config: the resolved config, stored in the record.
-        labels: names of the config choices (task, hand, cost, sampler, planner) for the record.
+        labels: names of the config choices (task, hand, cost, sampler, planner, ...) for the record.
 
     Returns:
         Path of ``trial.json``.
