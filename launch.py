@@ -54,18 +54,23 @@ LABELS = (
     "challenge",
 )
 
-UNSET_LABELS = {"variant": "full"}
-"""The label a record gets for a group left unset (``null``) in ``conf/config.yaml``: the name of what
-it composes to. No variant is the paper's full method: the root defaults are ``conf/variant/full.yaml``'s
-(``cost=contact``, ``sampler=pca_spline``)."""
+DEFAULT_VARIANT = ("full", {"planner": "predictive_sampling", "cost": "contact", "sampler": "pca_spline"})
+"""The variant label of a record whose ``variant`` is left unset (``null``), and the choices that make it
+so: the root defaults compose the paper's full method (``conf/variant/full.yaml`` selects the same). With
+other choices the label stays null and the analysis names the variant from them
+(``analysis.aggregate.variant_name``)."""
 
 log = logging.getLogger("contactmpc")
 
 
 def labels_of(choices: dict) -> dict:
-    """The record's labels (:data:`LABELS`) from Hydra's config choices; see :data:`UNSET_LABELS`."""
+    """The record's labels (:data:`LABELS`) from Hydra's config choices; an unset variant named as
+    :data:`DEFAULT_VARIANT` says."""
     labels = {g: choices.get(g) for g in LABELS}
-    return {g: UNSET_LABELS.get(g) if v is None else v for g, v in labels.items()}
+    name, makes = DEFAULT_VARIANT
+    if labels["variant"] is None and all(choices.get(g) == v for g, v in makes.items()):
+        labels["variant"] = name
+    return labels
 
 
 def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:

@@ -199,10 +199,13 @@ def test_a_record_without_the_newer_machine_fields_resumes(tmp_path):
 
 
 def test_labels_name_an_unset_variant_by_what_it_composes_to():
-    labels = launch.labels_of({"task": "apple", "variant": None, "fidelity": "authors_code"})
+    paper = {"planner": "predictive_sampling", "cost": "contact", "sampler": "pca_spline"}
+    labels = launch.labels_of({"task": "apple", "variant": None, "fidelity": "authors_code", **paper})
     assert (labels["variant"], labels["fidelity"], labels["task"]) == ("full", "authors_code", "apple")
-    assert launch.labels_of({"variant": "replay"})["variant"] == "replay"
-    assert launch.labels_of({})["preset"] is None  # other groups left unset stay null
+    assert launch.labels_of({**paper, "variant": "replay"})["variant"] == "replay"
+    # other choices than the full method's: no name is guessed (the analysis names it from them)
+    assert launch.labels_of({**paper, "cost": "object_only", "variant": None})["variant"] is None
+    assert launch.labels_of({**paper})["preset"] is None  # other groups left unset stay null
 
 
 def test_job_lock_is_exclusive(tmp_path):
