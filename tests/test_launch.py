@@ -263,8 +263,8 @@ def test_a_job_that_cannot_be_built_writes_an_error_record(tmp_path):
     assert record["status"] == "error" and "num_elites" in record["error"]
     assert "\n" not in record["error"] and "ConfigError" in record["traceback"]
     assert (record["task"], record["planner"], record["seed"]) == ("bottle", "cem", 4)
-    # no variant chosen: the record names what that composes to; the fidelity is named too
-    assert (record["variant"], record["fidelity"]) == ("full", "paper") and record["host"]["name"]
+    # no variant chosen, but planner=cem: not the full method, so no variant name; the fidelity is named
+    assert (record["variant"], record["fidelity"]) == (None, "paper") and record["host"]["name"]
     assert record["config"]["planner"]["num_elites"] == 1000 and record["config"]["output_dir"] == str(run)
 
 
