@@ -31,8 +31,8 @@ from hydra.types import RunMode  # noqa: E402
 from hydra.utils import get_method, instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
-from contactmpc.config import Config, check_config, member_schemas  # noqa: E402
-from contactmpc.jobs.trial import failure_status  # noqa: E402
+from contactmpc.config import Config, check_config, member_schemas, split_inputs  # noqa: E402
+from contactmpc.jobs.common import failure_status  # noqa: E402
 from contactmpc.records import RECORD_NAME, one_line  # noqa: E402
 from contactmpc.runs import RESUME, job_lock, resume_decision  # noqa: E402
 from sweep_summary import SWEEP_STATE_ENV  # noqa: E402  (also registers the safe_dirname resolver)
@@ -46,6 +46,7 @@ LABELS = (
     "sampler",
     "planner",
     "variant",
+    "fidelity",
     "preset",
     "experiment",
     "perturbation",
@@ -53,7 +54,23 @@ LABELS = (
     "challenge",
 )
 
+DEFAULT_VARIANT = ("full", {"planner": "predictive_sampling", "cost": "contact", "sampler": "pca_spline"})
+"""The variant label of a record whose ``variant`` is left unset (``null``), and the choices that make it
+so: the root defaults compose the paper's full method (``conf/variant/full.yaml`` selects the same). With
+other choices the label stays null and the analysis names the variant from them
+(``analysis.aggregate.variant_name``)."""
+
 log = logging.getLogger("contactmpc")
+
+
+def labels_of(choices: dict) -> dict:
+    """The record's labels (:data:`LABELS`) from Hydra's config choices; an unset variant named as
+    :data:`DEFAULT_VARIANT` says."""
+    labels = {g: choices.get(g) for g in LABELS}
+    name, makes = DEFAULT_VARIANT
+    if labels["variant"] is None and all(choices.get(g) == v for g, v in makes.items()):
+        labels["variant"] = name
+    return labels
 
 
 def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:
@@ -97,6 +114,21 @@ def build_scene(cfg: DictConfig):
     hand = instantiate(cfg.hand)
     task = instantiate(cfg.task)
     return instantiate(cfg.scene)(hand=hand, task=task)
+
+
+def build_job(node: DictConfig) -> functools.partial:
+    """The job of a composed config's ``job`` node: its function as a ``functools.partial`` that the call
+    site completes with ``make_scene``, ``output_dir``, ``seed``, ``config`` and ``labels``.
+
+    A job that takes a parameter object (:class:`contactmpc.config.Inputs`: the trial and online jobs'
+    :class:`~contactmpc.jobs.common.TrialInputs`) gets it built here, from the node's keys of its fields
+    (which the YAML holds at the job's level: ``job.failure_gap``, ``job.planner``, ...).
+    """
+    own, inputs = split_inputs(get_method(node._target_), OmegaConf.to_container(node, resolve=True))
+    if inputs is None:
+        return instantiate(node)
+    name, fields = inputs
+    return functools.partial(instantiate(own), **{name: instantiate(fields)})
 
 
 # --------------------------------------------------------------------------------------------- jobs
@@ -150,7 +182,7 @@ def _run(cfg: DictConfig, output_dir: Path, config: dict, labels: dict) -> dict:
         # whose config is refused, still leaves the record its function would have written (its
         # `record_failure`).
         check_config(config)
-        job = instantiate(cfg.job)
+        job = build_job(cfg.job)
         result = job(
             make_scene=functools.partial(build_scene, cfg),
             output_dir=output_dir,
@@ -191,7 +223,7 @@ def _record_failure(target: str) -> Any:
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def main(cfg: DictConfig) -> dict:
     hc = HydraConfig.get()
-    outcome = run_job(cfg, {g: hc.runtime.choices.get(g) for g in LABELS})
+    outcome = run_job(cfg, labels_of(hc.runtime.choices))
     if hc.mode != RunMode.MULTIRUN and outcome["status"] not in ("ok", "skipped"):
         sys.exit(130 if outcome["status"] == "interrupted" else 1)
     return outcome  # a multirun goes on with its other jobs; SweepSummary counts the outcomes

@@ -62,9 +62,47 @@ def locate(path: str) -> Any:
     return obj
 
 
+class Inputs:
+    """Base of a parameter object that a job's config holds at the job's own level.
+
+    A job function's parameter typed as a dataclass subclass of this (the trial and online jobs'
+    :class:`~contactmpc.jobs.common.TrialInputs`) stands for its fields: :func:`parameters` lists them
+    in its place, so the job's schema, checks and option defaults are its fields, and ``launch.build_job``
+    builds the object from the job config's keys of those names (:func:`inputs_parameter`).
+    """
+
+
+def inputs_parameter(target: Callable) -> tuple[str, type] | None:
+    """``(name, class)`` of the parameter of function ``target`` whose type is an :class:`Inputs`
+    dataclass, or ``None`` (a class, or a function without one)."""
+    if inspect.isclass(target):
+        return None
+    hints = type_hints(target)
+    for name in inspect.signature(target).parameters:
+        if (cls := _inputs_class(hints.get(name, Any))) is not None:
+            return name, cls
+    return None
+
+
+def split_inputs(target: Callable, node: Mapping[str, Any]) -> tuple[dict, tuple[str, dict] | None]:
+    """Split a job's config ``node`` (plain containers) into the job's own keys and, if ``target`` takes
+    an :class:`Inputs` object (:func:`inputs_parameter`), ``(parameter name, its node)``: the keys of its
+    fields, with its ``_target_``, to instantiate."""
+    found = inputs_parameter(target)
+    if found is None:
+        return dict(node), None
+    name, cls = found
+    fields = {f.name for f in dataclasses.fields(cls)}
+    own = {k: v for k, v in node.items() if k not in fields}
+    inputs = {"_target_": f"{cls.__module__}.{cls.__qualname__}"}
+    inputs.update((k, v) for k, v in node.items() if k in fields)
+    return own, (name, inputs)
+
+
 def parameters(target: Callable, extras: bool = False) -> list[tuple[inspect.Parameter, Any]]:
     """The named parameters of a function, or of a class's constructor, each with its resolved type.
 
+    A function's parameter typed as an :class:`Inputs` dataclass is replaced by that dataclass's fields.
     A constructor that takes ``**kwargs`` forwards them up the MRO (``MPPI(temperature, **kwargs)``
     -> ``Planner(num_samples, ...)``): the parameters of the next ``__init__`` follow, and so on, until
     one without ``**kwargs``. A name already seen is not repeated. ``self``, ``*args`` and ``**kwargs``
@@ -97,8 +135,18 @@ def parameters(target: Callable, extras: bool = False) -> list[tuple[inspect.Par
         for p in params:
             if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name in found:
                 continue
-            found[p.name] = (p, hints.get(p.name, Any))
+            hint = hints.get(p.name, Any)
+            if not is_method and (inputs := _inputs_class(hint)) is not None:  # its fields, in its place
+                found.update((q.name, (q, h)) for q, h in parameters(inputs, extras) if q.name not in found)
+                continue
+            found[p.name] = (p, hint)
     return list(found.values())
+
+
+def _inputs_class(hint: Any) -> type | None:
+    plain = typing.get_args(hint)[0] if typing.get_origin(hint) is Annotated else hint
+    ok = inspect.isclass(plain) and issubclass(plain, Inputs) and dataclasses.is_dataclass(plain)
+    return plain if ok else None
 
 
 def schema(target: str | Callable, *, exclude: Iterable[str] = (), partial: bool = False) -> type:

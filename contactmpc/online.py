@@ -15,10 +15,10 @@ reads that reference once per physics step and evaluates its targets from the pu
 half-written, and it keeps the previous plan for as long as the next one takes.
 
 Everything else is the trial's: the :class:`~contactmpc.trial.Trial` (problem, planner binding, timing
-checks) is built as for ``job=trial``, and its plant helpers (:meth:`~contactmpc.trial.Trial.start_plant`,
-:meth:`~contactmpc.trial.Trial.step_plant`, :meth:`~contactmpc.trial.Trial.check_plant`) and log
-(:meth:`~contactmpc.trial.Trial._log`, one row every ``replan_interval`` of control time, so the TTF and
-milestones are computed as for a trial) are used as they are. A configured ``planner.latency`` or
+checks) is built as for ``job=trial``, and its :class:`~contactmpc.plant.Plant`
+(:meth:`~contactmpc.trial.Trial.start_plant`: the draw, stepping, the divergence check and the log's row,
+one row every ``replan_interval`` of control time, so the TTF and milestones are computed as for a
+trial) is used as it is. A configured ``planner.latency`` or
 ``latency_model`` is not applied (the real delay is); the trial's ``replan_interval`` sets only the log's
 rows and the age beyond which a plan counts as stale. Unlike a trial, an online run is not reproducible:
 which states the planner sees, and when its plans land, depend on how fast the machine is.
@@ -183,14 +183,14 @@ class OnlineLoop:
         """
         trial = self.trial
         scene, planner = trial.scene, trial.planner
-        draw, prng, m, d = trial.start_plant()
-        dt = m.opt.timestep
+        plant = trial.start_plant()
+        draw, m, d = plant.draw, plant.model, plant.data
+        dt = plant.timestep
         n_steps = int(round(trial.duration / dt))
         per_log = int(round(trial.replan_interval / dt))
         per_state = max(1, int(round(scene.planner_timestep / dt)))
         # draw.delay: the planner is given the state of one replan interval earlier (as in a trial)
         observed: deque = deque(maxlen=(per_log // per_state + 1) if draw.delay else 1)
-        nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         self.step_version = np.full(n_steps, -1, np.int32)
         self.step_age = np.full(n_steps, np.nan)
         self.planner_threads = None if planner.engine is None else planner.engine.nthread
@@ -212,10 +212,8 @@ class OnlineLoop:
             for k in range(n_steps):
                 t = k * dt
                 if k % per_state == 0:  # the state on the planner's grid, as the planner is given it
-                    state = np.empty(nstate)
-                    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-                    state[0] = t  # rollouts run on the control clock
-                    observed.append(draw.observe(scene, state, prng))
+                    state = plant.state(t)  # rollouts run on the control clock
+                    observed.append(plant.observe(state))
                     self._publish_state(k, t, observed[0])
                 if k == 0:  # the plant starts with the first plan, from the initial state
                     self._first_plan()
@@ -234,8 +232,8 @@ class OnlineLoop:
                 self.step_version[k], self.step_age[k] = plan.version, age
                 if k % per_log == 0:
                     if k:
-                        trial.check_plant(d, t - per_log * dt, t)
-                    trial._log(self.log, d, t, target, plan.info)
+                        plant.check(t - per_log * dt, t)
+                    plant.log(self.log, t, target, plan.info)
                     self.log.append(
                         plan_version=plan.version, plan_age=age, wall_time=time.perf_counter() - wall0
                     )
@@ -250,12 +248,12 @@ class OnlineLoop:
                     origin, origin_step = now, k
                 if lag > self.plant_lag_max:
                     self.plant_lag_max, self.plant_lag_max_at = lag, t
-                trial.step_plant(m, d, draw, target, t, t + dt)
+                plant.step(target, t, t + dt)
                 self.steps_run = k + 1
                 if self.viewer is not None and now >= next_sync:
                     next_sync = now + 1.0 / self.fps
                     self._sync_viewer(d, t + dt)
-            trial.check_plant(d, (n_steps - per_log) * dt, n_steps * dt)
+            plant.check((n_steps - per_log) * dt, n_steps * dt)
         finally:
             self.wall_seconds = time.perf_counter() - wall0
             self._stop.set()
@@ -323,7 +321,8 @@ class OnlineLoop:
     def summary(self) -> dict:
         """What only an online run knows, as flat record fields (control seconds unless ``_wall``).
 
-        * ``replan_interval_median`` / ``_p95``: control time between consecutive plans taking effect;
+        * ``replan_interval_median`` / ``_p95``: control time between consecutive plans taking effect
+          (the record's ``replan_interval`` and ``latency`` stay the trial's configured ones);
           ``replan_interval_step_median``: the median over plant steps of the interval each lies in (a
           long interval weighs by its length: plans in contact are slower, and fewer);
           ``replan_interval_wall_median``: wall time between consecutive plans being published.
@@ -364,12 +363,10 @@ class OnlineLoop:
             "kept_up": self.plant_behind_seconds == 0.0,
             "num_plans": len(self.plans),
             "plans_applied": len(self.swaps),
-            "replan_interval": interval[0],
             "replan_interval_median": interval[0],
             "replan_interval_p95": interval[1],
             "replan_interval_step_median": _median_p95(per_step)[0],
             "replan_interval_wall_median": _median_p95(np.diff(ready))[0],
-            "latency": lat[0],
             "plan_latency_median": lat[0],
             "plan_latency_p95": lat[1],
             "plan_age_median": ages[0],

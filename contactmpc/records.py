@@ -1,4 +1,21 @@
-"""Trial records: one flat ``trial.json`` plus a compact per-step time series, written atomically."""
+"""Trial records: one flat ``trial.json`` plus a compact per-step time series, written atomically.
+
+A record (``schema`` 1) holds, besides the trial's outcome and costs
+(:func:`contactmpc.jobs.trial.summarize`):
+
+* the labels: the name of each config choice (``task``, ``hand``, ``cost``, ``sampler``, ``planner``,
+  ``variant``, ``fidelity``, ``preset``, ``experiment``, ...; ``launch.LABELS``), ``seed`` and ``status``;
+  a group left unset is recorded by the name of what it composes to (``variant: full``);
+* ``config``: the resolved config, the trial's identity (less :data:`NOT_THE_TRIAL`);
+* where and how it ran: ``versions`` (packages), ``git_revision``, ``cpu`` (the processor's model name)
+  and ``logical_cpus``; ``host`` (:func:`host`: the machine's name, its processor's full description and
+  its core counts); ``threads`` (rollout threads); ``concurrent_trials``: the most trials running at once
+  on the machine while this one ran, itself included (:class:`RunningTrials`: it changes CPU-seconds).
+
+A field added later is absent from older records: readers take it as unknown (``record.get``); none of
+these fields is part of a trial's identity, so a resume (:func:`contactmpc.runs.resume_decision`)
+compares only the configs and an older record resumes as before.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +25,10 @@ import json
 import os
 import platform
 import secrets
+import socket
 import subprocess
+import tempfile
+import threading
 from collections.abc import Iterable
 from importlib import metadata
 from pathlib import Path
@@ -82,10 +102,14 @@ def with_defaults(flat: dict[str, Any], keys: Iterable[str]) -> dict[str, Any]:
 @functools.lru_cache(maxsize=4096)
 def _keyword_default(target: str, name: str) -> str | None:
     """The default of keyword ``name`` of the callable ``target`` names, as JSON text; ``None``: none."""
-    from contactmpc.config import locate  # imported here: config is not needed to write a record
+    # imported here: config is not needed to write a record
+    from contactmpc.config import inputs_parameter, locate, parameters
 
     try:
-        param = inspect.signature(locate(target)).parameters.get(name)
+        obj = locate(target)
+        param = inspect.signature(obj).parameters.get(name)
+        if param is None and inputs_parameter(obj) is not None:  # a field of the job's inputs object
+            param = next((p for p, _ in parameters(obj) if p.name == name), None)
     except (ImportError, TypeError, ValueError):
         return None
     if param is None or param.default is inspect.Parameter.empty:
@@ -170,6 +194,147 @@ def cpu_model() -> str:
 def machine() -> dict[str, object]:
     """Where a record was made, as its fields: ``cpu`` (the model) and ``logical_cpus``."""
     return {"cpu": cpu_model(), "logical_cpus": os.cpu_count()}
+
+
+def _cpuinfo() -> list[dict[str, str]]:
+    """``/proc/cpuinfo``, one ``{key: value}`` per logical processor (empty where there is none)."""
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return []
+    blocks = []
+    for block in text.strip().split("\n\n"):
+        entry = {}
+        for line in block.splitlines():
+            key, sep, value = line.partition(":")
+            if sep:
+                entry[key.strip()] = " ".join(value.split())
+        blocks.append(entry)
+    return blocks
+
+
+def host() -> dict[str, object]:
+    """The machine a record was made on: ``name`` (the host name), ``cpu`` (the processor's full
+    description: model name, vendor, family, model and stepping, as ``/proc/cpuinfo`` has them),
+    ``logical_cpus`` and ``physical_cores`` (``None`` where unknown)."""
+    info = _cpuinfo()
+    first = info[0] if info else {}
+    parts = [
+        first[k] if k == "vendor_id" else f"{k.split()[-1]} {first[k]}"
+        for k in ("vendor_id", "cpu family", "model", "stepping")
+        if k in first
+    ]
+    cpu = cpu_model() + (f" ({', '.join(parts)})" if parts else "")
+    cores = {(e.get("physical id"), e.get("core id")) for e in info if "core id" in e}
+    return {
+        "name": socket.gethostname(),
+        "cpu": cpu,
+        "logical_cpus": os.cpu_count(),
+        "physical_cores": len(cores) or None,
+    }
+
+
+RUNNING_DIR_ENV = "CONTACTMPC_RUNNING_DIR"
+"""Environment variable: the directory of :class:`RunningTrials`' files (default:
+``<tmp>/contactmpc-running``)."""
+
+
+def _start_time(pid: int) -> str | None:
+    """When process ``pid`` started (``/proc/<pid>/stat``'s start time, in clock ticks), so a pid file of
+    a dead process is not taken for a new process given the same pid; ``None`` where unknown."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    return stat.rpartition(")")[2].split()[19]
+
+
+def _alive(pid: int, started: str | None) -> bool:
+    if started is not None and Path("/proc").is_dir():
+        return _start_time(pid) == started
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+class RunningTrials:
+    """A machine-wide registry of running trials: how many ran at once while one did.
+
+    While entered (``with RunningTrials() as running:``), the trial has a file ``<pid>-<token>`` in
+    ``directory`` naming its process (and the process's start time). :meth:`count` counts the files of
+    live processes (a stale file, of a process that died without removing it, is ignored and removed); a
+    thread samples it every ``interval`` seconds, and :attr:`max` is the most seen, the trial itself
+    included. It only reads and writes small files: the trial computes the same with it or without.
+
+    Args:
+        directory: where the files are; ``None``: ``$CONTACTMPC_RUNNING_DIR``, else
+            ``<tempfile.gettempdir()>/contactmpc-running``.
+        interval: seconds between samples.
+    """
+
+    def __init__(self, directory: str | Path | None = None, interval: float = 1.0) -> None:
+        default = os.environ.get(RUNNING_DIR_ENV) or Path(tempfile.gettempdir()) / "contactmpc-running"
+        self.directory = Path(directory if directory is not None else default)
+        self.interval = float(interval)
+        self.max = 0
+        self._file: Path | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def count(self) -> int:
+        """Trials running now on this machine (files of live processes)."""
+        n = 0
+        try:
+            files = list(self.directory.iterdir())
+        except OSError:
+            return 0
+        for path in files:
+            pid_text, _, _ = path.name.partition("-")
+            try:
+                started = path.read_text().strip() or None
+                pid = int(pid_text)
+            except (OSError, ValueError):
+                continue
+            if _alive(pid, started):
+                n += 1
+            else:
+                path.unlink(missing_ok=True)
+        return n
+
+    def sample(self) -> int:
+        """Count now and keep the most seen in :attr:`max`; returns the count."""
+        n = self.count()
+        self.max = max(self.max, n)
+        return n
+
+    def _sample_loop(self) -> None:
+        while not self._stop.wait(self.interval):
+            self.sample()
+
+    def __enter__(self) -> RunningTrials:
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            pid = os.getpid()
+            self._file = self.directory / f"{pid}-{secrets.token_hex(4)}"
+            self._file.write_text(_start_time(pid) or "")
+        except OSError:  # a registry that cannot be written counts nothing; the trial runs all the same
+            self._file = None
+        self.sample()
+        self._thread = threading.Thread(target=self._sample_loop, name="running-trials", daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+        self.sample()
+        if self._file is not None:
+            self._file.unlink(missing_ok=True)
 
 
 def git_revision(cwd: str | Path | None = None) -> str | None:

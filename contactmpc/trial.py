@@ -13,10 +13,8 @@ synchronous loop, bit for bit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Annotated
 
-import mujoco
 import numpy as np
 from tqdm.auto import tqdm
 
@@ -25,56 +23,14 @@ from contactmpc.control.planners.base import Planner
 from contactmpc.control.problem import Problem
 from contactmpc.control.samplers import SplineSpace
 from contactmpc.perturbations import Perturbation, PerturbationDraw
+from contactmpc.plant import Plant, PlantDiverged, TrialLog
 from contactmpc.reference.data import Reference
 from contactmpc.scene import Scene
 from contactmpc.validate import ConfigError, Ge, Gt, checked
 
+__all__ = ["Plant", "PlantDiverged", "Trial", "TrialLog", "check_planner_timing", "check_timing"]
+
 TIMING_TOLERANCE = 1e-9  # s: how far a period may be from a whole number of plant steps
-
-
-class PlantDiverged(RuntimeError):
-    """The plant simulation went unstable (MuJoCo warning or non-finite state).
-
-    Attributes:
-        time: the control time of the last replan before it went unstable (s), or ``None``.
-        log: the trial's log up to that replan (set by :meth:`Trial.run`), or ``None``.
-    """
-
-    def __init__(self, message: str, time: float | None = None) -> None:
-        super().__init__(message)
-        self.time = time
-        self.log: TrialLog | None = None
-
-
-@dataclass
-class TrialLog:
-    """Per-step log of a trial, one row per replan period.
-
-    Attributes:
-        time: (N,) control time (s).
-        qpos: (N, nq) the plant's full configuration (for rendering the trial afterwards).
-        hand_qpos: (N, J) plant hand configuration.
-        hand_target: (N, J) joint targets sent to the actuators.
-        object_qpos: (N, n_o) plant object configuration.
-        expected_object_qpos: (N, n_o) reference object configuration at that time.
-        contacts: (N, L) links touching the object.
-        expected_contacts: (N, L) links expected in contact by the reference.
-        object_position_error / object_rotation_error / object_articulation_error: (N,).
-        cost_<term>: (N,) each cumulative cost term of the committed sample (``cost_object``,
-            ``cost_contact``, ``cost_velocity`` for :class:`~contactmpc.control.cost.TrackingCost`).
-        plan_seconds: (N,) wall time of the planning iteration.
-        num_diverged: (N,) diverged rollouts of the iteration.
-    """
-
-    columns: dict[str, list] = field(default_factory=dict)
-
-    def append(self, **row) -> None:
-        for k, v in row.items():
-            self.columns.setdefault(k, []).append(np.array(v, copy=True))
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """The log as a dict of stacked arrays."""
-        return {k: np.stack(v) for k, v in self.columns.items()}
 
 
 def check_timing(
@@ -152,7 +108,7 @@ class Trial:
     ) -> None:
         self.scene, self.reference, self.planner = scene, reference, planner
         self.perturbation = Perturbation() if perturbation is None else perturbation
-        self.draw: PerturbationDraw | None = None
+        self.plant: Plant | None = None
         self.seed = int(seed)
         self.progress = progress
         plant_dt = scene.plant_model.opt.timestep
@@ -183,14 +139,13 @@ class Trial:
             PlantDiverged: if the plant becomes unstable.
         """
         scene, planner = self.scene, self.planner
-        draw, prng, m, d = self.start_plant()
+        plant = self.start_plant()
         rng = np.random.default_rng(self.seed)
-        dt = m.opt.timestep
+        dt = plant.timestep
         per_plan = int(round(self.replan_interval / dt))
         lag = int(round(self.latency / dt))  # plant steps on the previous plan after each replan
         n_steps = int(round(self.duration / dt))
-        nstate = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        state = np.empty(nstate)
+        state = np.empty(plant.state_size())
         earlier = None  # the state of one replan period earlier (draw.delay)
         pending = sorted(float(v) for v in snapshots)
         self.snapshots: dict[float, np.ndarray] = {}
@@ -202,12 +157,11 @@ class Trial:
         try:
             for k in range(0, n_steps, per_plan):
                 t = k * dt
-                mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-                state[0] = t  # rollouts run on the control clock
+                plant.state(t, out=state)  # rollouts run on the control clock
                 while pending and t >= pending[0] - 1e-9:
                     self.snapshots[pending.pop(0)] = state.copy()
-                seen = draw.observe(scene, state, prng)
-                if draw.delay:
+                seen = plant.observe(state)
+                if plant.draw.delay:
                     seen, earlier = (seen if earlier is None else earlier), seen.copy()
                 if lag:  # the previous plan's targets until this one takes effect
                     previous = planner.targets(t + offsets[:lag])
@@ -218,10 +172,10 @@ class Trial:
                     targets = np.concatenate([previous, planner.targets(t + offsets[lag:])])
                 else:  # continuous replanning: this plan takes effect when the next one starts
                     targets = previous
-                self._log(log, d, t, targets[0], info)
+                plant.log(log, t, targets[0], info)
                 for j in range(min(per_plan, n_steps - k)):
-                    self.step_plant(m, d, draw, targets[j], t + j * dt, t + (j + 1) * dt)
-                self.check_plant(d, t, (k + min(per_plan, n_steps - k)) * dt)
+                    plant.step(targets[j], t + j * dt, t + (j + 1) * dt)
+                plant.check(t, (k + min(per_plan, n_steps - k)) * dt)
                 bar.update(min(per_plan, n_steps - k))
         except PlantDiverged as err:
             err.log = log  # what happened until then, for the record
@@ -239,73 +193,17 @@ class Trial:
         return time, self.track.contact_active[[self.track.index(t) for t in time]]
 
     # --- the plant, shared with the wall-clock loop (contactmpc.online) -------------------------
-    def start_plant(self) -> tuple[PerturbationDraw, np.random.Generator, mujoco.MjModel, mujoco.MjData]:
-        """Draw the perturbation (:attr:`draw`) and make the plant at its start: the hand at the committed
-        policy's first targets, the object at the task's start (moved by the draw).
+    @property
+    def draw(self) -> PerturbationDraw | None:
+        """The perturbation's draw, once :meth:`run` (or :meth:`start_plant`) has started."""
+        return None if self.plant is None else self.plant.draw
 
-        Returns:
-            ``(draw, prng, model, data)``: the draw, its generator (observation noise), the plant model
-            (the scene's own unless the draw changes it) and its data.
-        """
+    def start_plant(self) -> Plant:
+        """Make the trial's :class:`~contactmpc.plant.Plant` (:attr:`plant`) and start it: the perturbation
+        drawn from the seed, the hand at the committed policy's first targets, the object at the task's
+        start (moved by the draw)."""
         scene = self.scene
-        prng = Perturbation.generator(self.seed)
-        draw = self.draw = self.perturbation.draw(prng, self.duration, self.seed)
-        m = draw.plant_model(scene)  # the scene's plant itself unless the draw changes it
-        d = mujoco.MjData(m)
+        plant = self.plant = Plant(scene, self.track, self.perturbation, self.seed, self.duration)
         hand0 = self.planner.targets(np.array([0.0]))[0]
-        qo0 = draw.initial_object_qpos(scene, scene.task.start_object_qpos(self.reference.object_qpos[0]))
-        scene.reset(d, hand_qpos=hand0, object_qpos=qo0)
-        return draw, prng, m, d
-
-    def step_plant(
-        self,
-        m: mujoco.MjModel,
-        d: mujoco.MjData,
-        draw: PerturbationDraw,
-        target: np.ndarray,
-        t0: float,
-        t1: float,
-    ) -> None:
-        """One physics step from control time ``t0`` to ``t1`` under joint ``target`` (J,), with the
-        draw's pushes on the object."""
-        d.ctrl[self.scene.index.actuators] = target
-        force = draw.push_force(t0, t1, m.opt.timestep) if draw.push_times else None
-        if force is None:
-            mujoco.mj_step(m, d)
-            return
-        pushed = int(self.scene.index.object_bodies[0])
-        d.xfrc_applied[pushed, :3] = force
-        mujoco.mj_step(m, d)
-        d.xfrc_applied[pushed, :3] = 0.0
-
-    @staticmethod
-    def check_plant(d: mujoco.MjData, t0: float, t1: float) -> None:
-        """Raise :class:`PlantDiverged` if the plant went unstable between control times ``t0`` and ``t1``
-        (a MuJoCo warning or a non-finite configuration; 1 us)."""
-        if d.warning.number.any() or not np.isfinite(d.qpos).all():
-            # MuJoCo resets a diverged plant (d.time restarts): name the control time
-            raise PlantDiverged(f"plant diverged between t={t0:.3f}s and t={t1:.3f}s", t0)
-
-    def _log(self, log: TrialLog, d: mujoco.MjData, t: float, target: np.ndarray, info) -> None:
-        scene, tr = self.scene, self.track
-        i = tr.index(t)
-        qo = scene.object_qpos(d)
-        err = scene.task.layout.error(qo, tr.object_qpos[i])
-        log.append(
-            time=t,
-            qpos=d.qpos,
-            hand_qpos=scene.hand_qpos(d),
-            hand_target=target,
-            object_qpos=qo,
-            expected_object_qpos=tr.object_qpos[i],
-            contacts=scene.link_contacts(d),
-            expected_contacts=tr.contact_active[i],
-            object_position_error=err.position,
-            object_rotation_error=err.rotation,
-            object_articulation_error=err.articulation,
-            **{f"cost_{name}": value for name, value in info.terms.items()},
-            best_cost=info.best_cost,
-            nominal_cost=info.nominal_cost,
-            plan_seconds=info.seconds,
-            num_diverged=info.num_diverged,
-        )
+        plant.start(hand0, scene.task.start_object_qpos(self.reference.object_qpos[0]))
+        return plant

@@ -11,6 +11,7 @@ import dataclasses
 import enum
 import functools
 import inspect
+import typing
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 import launch
-from contactmpc.config import JOB_RUNTIME_ARGS, MISSING, SCENE_RUNTIME_ARGS, Config, locate, schema
+from contactmpc.config import JOB_RUNTIME_ARGS, MISSING, SCENE_RUNTIME_ARGS, Config, Inputs, locate, schema
 from launch import SCHEMAS
 from tests.conftest import CONF_DIR, compose_config, member_package
 
@@ -47,8 +48,13 @@ def signature_params(target) -> dict[str, inspect.Parameter]:
                     break
     params: dict[str, inspect.Parameter] = {}
     for function, skip in inits:
+        hints = typing.get_type_hints(function) if not skip else {}
         for p in list(inspect.signature(function).parameters.values())[skip:]:
-            if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            hint = hints.get(p.name)
+            if inspect.isclass(hint) and issubclass(hint, Inputs):  # a job's inputs: its fields instead
+                for q in signature_params(hint).values():
+                    params.setdefault(q.name, q)
+            elif p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
                 params.setdefault(p.name, p)
     return params
 

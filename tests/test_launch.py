@@ -15,12 +15,13 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
+import launch
 import sweep_summary
 from contactmpc import runs
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners import PredictiveSampling
 from contactmpc.control.samplers import PCASplineSpace
-from contactmpc.jobs.trial import run_trial
+from contactmpc.jobs.trial import TrialInputs, run_trial
 from contactmpc.records import write_json
 from tests.conftest import REPO_ROOT, build_scene, compose_config
 from tests.helpers import static_reference
@@ -188,6 +189,25 @@ def test_resume_decision(tmp_path):
     assert runs.resume_decision(tmp_path, bottle, True) == ("run", None)
 
 
+def test_a_record_without_the_newer_machine_fields_resumes(tmp_path):
+    """Records made before ``host``, ``concurrent_trials`` and the ``fidelity`` label (and with
+    ``variant: null``) are the same trial as now: a resume skips them."""
+    apple = _config("task=apple")
+    old = {"task": "apple", "variant": None, "seed": 0, "status": "ok", "cpu": "AMD EPYC", "config": apple}
+    write_json(tmp_path / "trial.json", old)
+    assert runs.resume_decision(tmp_path, apple, True)[0] == "skip"
+
+
+def test_labels_name_an_unset_variant_by_what_it_composes_to():
+    paper = {"planner": "predictive_sampling", "cost": "contact", "sampler": "pca_spline"}
+    labels = launch.labels_of({"task": "apple", "variant": None, "fidelity": "authors_code", **paper})
+    assert (labels["variant"], labels["fidelity"], labels["task"]) == ("full", "authors_code", "apple")
+    assert launch.labels_of({**paper, "variant": "replay"})["variant"] == "replay"
+    # other choices than the full method's: no name is guessed (the analysis names it from them)
+    assert launch.labels_of({**paper, "cost": "object_only", "variant": None})["variant"] is None
+    assert launch.labels_of({**paper})["preset"] is None  # other groups left unset stay null
+
+
 def test_job_lock_is_exclusive(tmp_path):
     with runs.job_lock(tmp_path / "job") as first:
         assert first and locked(tmp_path / "job")
@@ -204,7 +224,8 @@ def test_trial_records_ctrl_c_and_a_job_that_could_not_be_built(tmp_path):
 
     planner = PredictiveSampling(num_samples=4, horizon=0.1, replan_period=0.05, nthread=1)
     with pytest.raises(KeyboardInterrupt):
-        run_trial(interrupted_scene, tmp_path / "a", 1, PCASplineSpace(0.2), TrackingCost(), planner)
+        inputs = TrialInputs(PCASplineSpace(0.2), TrackingCost(), planner)
+        run_trial(interrupted_scene, tmp_path / "a", 1, inputs)
     record = json.loads((tmp_path / "a" / "trial.json").read_text())
     assert (record["status"], record["error"], record["seed"]) == ("interrupted", "KeyboardInterrupt", 1)
 
@@ -242,6 +263,8 @@ def test_a_job_that_cannot_be_built_writes_an_error_record(tmp_path):
     assert record["status"] == "error" and "num_elites" in record["error"]
     assert "\n" not in record["error"] and "ConfigError" in record["traceback"]
     assert (record["task"], record["planner"], record["seed"]) == ("bottle", "cem", 4)
+    # no variant chosen, but planner=cem: not the full method, so no variant name; the fidelity is named
+    assert (record["variant"], record["fidelity"]) == (None, "paper") and record["host"]["name"]
     assert record["config"]["planner"]["num_elites"] == 1000 and record["config"]["output_dir"] == str(run)
 
 

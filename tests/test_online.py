@@ -66,7 +66,8 @@ def test_an_online_run_swaps_plans_in_and_writes_its_record(apple_reference, tmp
         assert record[key] is not None and record[key] > 0, key
     assert record["plan_age_p95"] >= record["plan_age_median"]
     assert record["replan_interval_p95"] >= record["replan_interval_median"]
-    assert record["replan_interval"] == record["replan_interval_median"]  # the realised one
+    assert record["replan_interval"] == 0.05  # the configured one, as in a trial (the realised: _median)
+    assert record["latency"] == 0.0  # configured (the realised: plan_latency_median)
     assert 0 <= record["stale_steps"] <= 400 and record["stale_threshold"] == 0.05
     # the plant is paced: never faster than asked (15x slower), and not far slower at that pace
     assert record["simulated_seconds"] == pytest.approx(0.4)

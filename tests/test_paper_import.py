@@ -479,9 +479,7 @@ def test_real_paper_task_runs_two_seconds(task: str, tmp_path: Path, compose) ->
     import launch
 
     cfg = compose([f"task={task}", "duration=2", "job.progress=false", f"hydra.run.dir={tmp_path}"])
-    from hydra.utils import instantiate
-
-    job = instantiate(cfg.job)
+    job = launch.build_job(cfg.job)
     import functools
 
     record = job(

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import stat
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
@@ -53,3 +57,32 @@ def test_records_get_the_permissions_of_a_new_file(tmp_path, umask, mode):
     finally:
         os.umask(old)
     assert [stat.S_IMODE(p.stat().st_mode) for p in paths] == [mode] * 3
+
+
+def test_running_trials_counts_live_processes_and_ignores_stale_files(tmp_path):
+    """The machine-wide registry: each running trial's file counts while its process lives; a file left
+    by a dead process (or by a process whose pid was given to another) is ignored and removed."""
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (tmp_path / f"{dead.pid}-00000000").write_text("")  # a dead process's file
+    (tmp_path / f"{os.getpid()}-11111111").write_text("1")  # this pid, but another start time: reused
+    (tmp_path / "not-a-trial").write_text("")
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        (tmp_path / f"{other.pid}-22222222").write_text(records._start_time(other.pid) or "")
+        with records.RunningTrials(tmp_path, interval=0.05) as running:
+            assert running.count() == 2  # this trial and the other process's
+            time.sleep(0.2)
+        assert running.max == 2
+        assert sorted(p.name for p in tmp_path.iterdir()) == [f"{other.pid}-22222222", "not-a-trial"]
+    finally:
+        other.kill()
+        other.wait()
+    assert records.RunningTrials(tmp_path).count() == 0
+
+
+def test_host_names_the_machine_its_processor_and_cores():
+    host = records.host()
+    assert host["name"] == socket.gethostname() and host["logical_cpus"] == os.cpu_count()
+    assert host["cpu"].startswith(records.cpu_model())
+    assert host["physical_cores"] is None or 1 <= host["physical_cores"] <= os.cpu_count()

@@ -8,7 +8,6 @@ import sys
 
 import numpy as np
 import pytest
-from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 from contactmpc.control.cost import TrackingCost
@@ -16,6 +15,7 @@ from contactmpc.control.planners import PredictiveSampling
 from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.reference import source
 from contactmpc.trial import PlantDiverged, Trial
+from launch import build_job
 from tests.conftest import REPO_ROOT, TASKS, build_scene, compose_config
 from tests.helpers import static_reference
 
@@ -37,7 +37,7 @@ def reference_files(tmp_path_factory):
 def run_job(overrides, out_dir):
     """Compose, instantiate and call the job exactly as launch.py does (without Hydra's runtime)."""
     cfg = compose_config(overrides)
-    job = instantiate(cfg.job)
+    job = build_job(cfg.job)
     return job(
         make_scene=lambda: build_scene(tuple(overrides)),
         output_dir=out_dir,
@@ -55,6 +55,7 @@ def test_every_task_and_planner_runs_a_few_steps(task, planner, reference_files,
     record = json.loads(path.read_text())
     assert record["status"] == "ok", record.get("error")
     assert record["num_plans"] == 3
+    assert record["concurrent_trials"] >= 1 and record["host"]["cpu"].startswith(record["cpu"])
     series = np.load(tmp_path / "timeseries.npz")
     assert series["time"].shape == (3,)
     assert np.isfinite(series["object_qpos"]).all()

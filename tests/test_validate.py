@@ -87,7 +87,7 @@ def test_nonsense_value_fails_before_any_work(overrides, key, tmp_path):
         return  # contactmpc/tasks/ keeps its own checks; the config check above is what stops it
     with pytest.raises((ConfigError, InstantiationException), match=rf"\.{param}(\[\d+\])? must be"):
         if node == "job":
-            job = instantiate(cfg.job)
+            job = launch.build_job(cfg.job)
             job(make_scene=_no_work, output_dir=tmp_path, seed=cfg.seed, config={}, labels={})
         elif node == "scene":
             instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))

@@ -4,32 +4,27 @@ from __future__ import annotations
 
 import logging
 import time
-import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
 import numpy as np
 
-from contactmpc.control.cost import TrackingCost
-from contactmpc.control.planners.base import Planner
-from contactmpc.control.samplers import SplineSpace
-from contactmpc.metrics import errors_by_window, time_to_failure, time_to_failure_cut_short
-from contactmpc.perturbations import Perturbation
-from contactmpc.records import (
-    RECORD_NAME,
-    SERIES_NAME,
-    git_revision,
-    machine,
-    one_line,
-    versions,
-    write_json,
-    write_series,
+from contactmpc.jobs.common import (
+    TrialInputs,
+    build_trial,
+    failure_status,
+    new_record,
+    record_failure,
+    write_failure,
 )
-from contactmpc.reference.source import get_reference
+from contactmpc.metrics import errors_by_window, time_to_failure, time_to_failure_cut_short
+from contactmpc.records import RECORD_NAME, SERIES_NAME, RunningTrials, write_json, write_series
 from contactmpc.scene import Scene
-from contactmpc.trial import PlantDiverged, Trial, check_planner_timing
+from contactmpc.trial import PlantDiverged, Trial
 from contactmpc.validate import Ge, Gt, OneOf, checked
+
+__all__ = ["TrialInputs", "failure_status", "record_failure", "run_trial", "summarize"]
 
 logger = logging.getLogger(__name__)
 
@@ -39,19 +34,9 @@ def run_trial(
     make_scene: Callable[[], Scene],
     output_dir: str | Path,
     seed: Annotated[int, Ge(0)],
-    sampler: SplineSpace,
-    cost: TrackingCost,
-    planner: Planner,
-    num_control_points: int | None = None,
-    duration: Annotated[float, Gt(0)] | None = None,
-    progress: bool = True,
-    failure_gap: Annotated[float, Ge(0)] = 0.3,
-    failure_min_expected: Annotated[int, Ge(0)] = 6,
-    milestone_hold: Annotated[float, Ge(0)] = 0.3,
-    reference_cache: str | None = "outputs/cache/references",
+    inputs: TrialInputs,
     video: Annotated[str, OneOf("gif", "mp4")] | None = None,
     video_speed: Annotated[float, Gt(0)] = 1.0,
-    perturbation: Perturbation | None = None,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -69,60 +54,40 @@ def run_trial(
             still leaves a record).
         output_dir: the run directory.
         seed: the trial's seed.
-        sampler: sampler space (PCA or joint splines).
-        cost: running cost.
-        planner: planner.
-        num_control_points: M; ``None`` = the reference's suggestion.
-        duration: control time to simulate; ``None`` = the slowed reference.
-        progress: show a progress bar.
-        failure_gap: TTF rule: seconds without any contact (paper 0.3).
-        failure_min_expected: TTF rule: needs more than this many expected contacts (paper 6).
-        milestone_hold: a milestone counts when its condition holds, with the hand touching the
-            object, for at least this many seconds in a row; the final one (``settled``) when it
-            holds over the trial's last this many seconds or more.
-        reference_cache: directory caching synthesised references (``None`` disables).
+        inputs: sampler, cost, planner and the trial's settings (shared with ``job=online``; its config
+            holds their fields at the job's own level: ``job.failure_gap``, ...).
         video: ``"gif"`` or ``"mp4"`` to render the trial next to its record (``trial.<ext>``);
             ``None`` renders nothing.
         video_speed: playback speed of the video relative to control time.
-        perturbation: plant-only changes drawn from the seed (:mod:`contactmpc.perturbations`); the
-            drawn values go into the record (``perturbation``). ``None``: none.
         config: the resolved config, stored in the record.
-        labels: names of the config choices (task, hand, cost, sampler, planner) for the record.
+        labels: names of the config choices (task, hand, cost, sampler, planner, ...) for the record.
 
     Returns:
         Path of ``trial.json``.
     """
     out = Path(output_dir)
-    record = _new_record(seed, labels)
+    record = new_record(seed, labels)
+    planner = inputs.planner
+    rules = (inputs.failure_gap, inputs.failure_min_expected, inputs.milestone_hold)
     wall0 = time.perf_counter()
+    running = RunningTrials()
     try:
-        scene = make_scene()
-        check_planner_timing(scene, planner)  # before a reference is synthesised
-        reference = get_reference(scene, reference_cache)
-        trial = Trial(
-            scene,
-            reference,
-            sampler,
-            cost,
-            planner,
-            seed,
-            num_control_points,
-            duration,
-            progress,
-            perturbation,
-        )
-        engine = getattr(planner, "engine", None)  # rollout threads (None: a planner without rollouts)
-        record["threads"] = None if engine is None else engine.nthread
-        loop0, cpu0 = time.perf_counter(), time.process_time()
-        try:
-            log = trial.run()
-        finally:
-            planner.close()
-            if trial.draw is not None:
-                record["perturbation"] = trial.draw.record()
+        with running:
+            trial = build_trial(make_scene, seed, inputs)
+            scene = trial.scene
+            engine = getattr(planner, "engine", None)  # rollout threads (None: a planner without rollouts)
+            record["threads"] = None if engine is None else engine.nthread
+            loop0, cpu0 = time.perf_counter(), time.process_time()
+            try:
+                log = trial.run()
+            finally:
+                planner.close()
+                if trial.draw is not None:
+                    record["perturbation"] = trial.draw.record()
+        record["concurrent_trials"] = running.max or None
         series = log.arrays()
         wall = time.perf_counter() - loop0  # the closed loop alone, for the real-time factor
-        record.update(summarize(series, trial, wall, failure_gap, failure_min_expected, milestone_hold))
+        record.update(summarize(series, trial, wall, *rules))
         record["cpu_seconds"] = time.process_time() - cpu0  # the process's, all rollout threads
         record["setup_seconds"] = loop0 - wall0
         record["status"] = "ok"
@@ -134,17 +99,16 @@ def run_trial(
                 render_trial_video(scene, series, trial.track, out / f"trial.{video}", speed=video_speed)
             )
     except (Exception, KeyboardInterrupt) as err:
+        record["concurrent_trials"] = running.max or None
         if isinstance(err, PlantDiverged) and err.log is not None and err.log.columns:
             # what the trial did until its plant went unstable: a failure there if inside the span
             series = err.log.arrays()
             wall = time.perf_counter() - loop0
-            record.update(
-                summarize(series, trial, wall, failure_gap, failure_min_expected, milestone_hold, err.time)
-            )
+            record.update(summarize(series, trial, wall, *rules, err.time))
             record["cpu_seconds"] = time.process_time() - cpu0
             record["diverged_time"] = err.time
             write_series(out / SERIES_NAME, series)
-        _write_failure(out, record, err, time.perf_counter() - wall0, config)
+        write_failure(out, record, err, time.perf_counter() - wall0, config)
         raise
     record["config"] = config
     path = write_json(out / RECORD_NAME, record)
@@ -167,52 +131,7 @@ def run_trial(
     return path
 
 
-def record_failure(
-    output_dir: str | Path,
-    seed: int,
-    error: BaseException,
-    config: dict | None = None,
-    labels: dict | None = None,
-) -> Path:
-    """Write the record of a trial that could not start: its sampler, cost or planner failed to build.
-
-    The record has the fields of a trial that failed while running (status ``error``, or
-    ``interrupted`` for a ``KeyboardInterrupt``; the one-line reason, the traceback, labels, seed,
-    versions and the config), so a sweep's analysis counts it like any other failed trial.
-
-    Returns:
-        Path of ``trial.json``.
-    """
-    return _write_failure(Path(output_dir), _new_record(seed, labels), error, None, config)
-
-
 run_trial.record_failure = record_failure
-
-
-def failure_status(error: BaseException) -> str:
-    """The record ``status`` of a trial (or any job) that raised ``error``."""
-    if isinstance(error, KeyboardInterrupt):
-        return "interrupted"
-    return "diverged" if isinstance(error, PlantDiverged) else "error"
-
-
-def _new_record(seed: int, labels: dict | None) -> dict:
-    record: dict = {"schema": 1, **(labels or {}), "seed": int(seed), "status": "running"}
-    record["versions"] = versions()
-    record["git_revision"] = git_revision()
-    record.update(machine())
-    return record
-
-
-def _write_failure(
-    out: Path, record: dict, err: BaseException, wall_seconds: float | None, config: dict | None
-) -> Path:
-    record["status"] = failure_status(err)
-    record["error"] = one_line(err)
-    record["traceback"] = "".join(traceback.format_exception(err, limit=8))
-    record["wall_seconds"] = wall_seconds
-    record["config"] = config
-    return write_json(out / RECORD_NAME, record)
 
 
 def summarize(
