@@ -6,7 +6,10 @@
   there is one, else a generated index), at the same paths in the site, in a "Studies" section.
 - **Files the pages link to**: a relative link or image whose target is not in the docs tree but exists
   at the same path in the repository (``../analysis/images/x.png`` from ``guide/*.md``, a study's
-  ``figures/*.png``) is served from the repository, so no binary file is copied into ``docs/`` in git.
+  ``figures/*.png``) is served from the repository, so no binary file is copied into ``docs/`` in git;
+  a Markdown file under ``studies/`` that a study links to becomes a page outside the nav. A link to what
+  the repository has but a site cannot show (a folder, other Markdown) keeps its text and loses its link
+  (the repository's README links to the home page); a link to what does not exist fails the build.
 - **Config groups**: ``<!-- config-groups -->`` in ``guide/config-groups.md`` is replaced by the
   tables that :mod:`config_groups` (beside this file) makes from ``conf/`` and the config schemas.
 
@@ -20,7 +23,7 @@ import re
 import sys
 from pathlib import Path
 
-from mkdocs.structure.files import File, Files
+from mkdocs.structure.files import File, Files, InclusionLevel
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
@@ -32,6 +35,7 @@ MARKER = "<!-- config-groups -->"
 # [text](target), ![alt](target "title"), <img src="target">, [ref]: target
 _LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)|<img[^>]*\ssrc=\"([^\"]+)\"")
 _REF = re.compile(r"^\s{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s|$)", re.MULTILINE)
+_INLINE_LINK = re.compile(r"(?<!!)\[([^\]]*)\]\(\s*<?([^)\s>]+)>?\s*\)")
 _FENCE = re.compile(r"^(```|~~~).*?^\1", re.MULTILINE | re.DOTALL)
 
 
@@ -123,17 +127,51 @@ def _targets(markdown: str) -> list[str]:
     return out
 
 
-def _add_linked(files: Files, config, page: File) -> None:
-    """Serve from the repository what ``page`` links to at a path the docs tree lacks."""
-    markdown = page.content_string
+def _add_linked(files: Files, config) -> None:
+    """Serve from the repository what the pages link to at a path the docs tree lacks: a file that is not
+    Markdown as it is, a Markdown file under ``studies/`` as a page outside the nav (its links followed in
+    turn). Other targets are left to :func:`_unlink` and, if missing, to mkdocs' link check."""
+    todo = list(files.documentation_pages())
+    while todo:
+        page = todo.pop()
+        base = posixpath.dirname(page.src_uri)
+        for target in _targets(page.content_string):
+            uri = posixpath.normpath(posixpath.join(base, target))
+            source = ROOT / uri
+            if uri.startswith("..") or files.get_file_from_path(uri) is not None or not source.is_file():
+                continue
+            if source.suffix != ".md":
+                files.append(File.generated(config, uri, abs_src_path=str(source)))
+            elif uri.startswith(STUDIES + "/"):
+                hidden = InclusionLevel.NOT_IN_NAV
+                new = File.generated(config, uri, abs_src_path=str(source), inclusion=hidden)
+                files.append(new)
+                todo.append(new)
+
+
+def _unlink(markdown: str, page: File, files: Files) -> str:
+    """Links to what the repository has but the site cannot show (a folder, a Markdown file outside the
+    site) keep their text and lose their link; a link to the repository's README goes to the home page."""
     base = posixpath.dirname(page.src_uri)
-    for target in _targets(markdown):
-        uri = posixpath.normpath(posixpath.join(base, target))
+
+    def replace(match: re.Match) -> str:
+        text, target = match.group(1), match.group(2)
+        path = target.split("#", 1)[0].split("?", 1)[0]
+        if not path or re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*:", path) or path.startswith("/"):
+            return match.group(0)
+        uri = posixpath.normpath(posixpath.join(base, path))
         if uri.startswith("..") or files.get_file_from_path(uri) is not None:
-            continue
-        source = ROOT / uri
-        if source.is_file() and source.suffix != ".md":
-            files.append(File.generated(config, uri, abs_src_path=str(source)))
+            return match.group(0)
+        if uri == "README.md":
+            return f"[{text}]({posixpath.relpath('index.md', base or '.')})"
+        if (ROOT / uri).is_dir() or (ROOT / uri).is_file():
+            return text
+        return match.group(0)
+
+    parts = re.split(r"(^(?:```|~~~).*?^(?:```|~~~)[^\n]*$)", markdown, flags=re.MULTILINE | re.DOTALL)
+    for i in range(0, len(parts), 2):  # the odd parts are fenced code
+        parts[i] = _INLINE_LINK.sub(replace, parts[i])
+    return "".join(parts)
 
 
 # -------------------------------------------------------------------------------------------- hooks
@@ -164,13 +202,13 @@ def on_files(files: Files, config) -> Files:
             files.append(File.generated(config, f"{STUDIES}/README.md", content=_studies_index(reports)))
         for report in reports:
             files.append(File.generated(config, report, abs_src_path=str(ROOT / report)))
-    for page in list(files.documentation_pages()):
-        _add_linked(files, config, page)
+    _add_linked(files, config)
     return files
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:
-    """Fill the config-groups page from ``conf/`` and the schemas."""
+    """Fill the config-groups page from ``conf/`` and the schemas; drop links the site cannot serve."""
+    markdown = _unlink(markdown, page.file, files)
     if MARKER in markdown:
         if str(DOCS) not in sys.path:
             sys.path.insert(0, str(DOCS))
