@@ -28,7 +28,6 @@ ROOT = Path(__file__).resolve().parent.parent
 CONF = ROOT / "conf"
 
 _ROLE = re.compile(r":(?:py:)?[a-z]+:`~?([^`]+)`")
-_SENTENCE = re.compile(r"(.+?[.;:])(?:\s|$)")
 
 
 def _setup() -> None:
@@ -51,10 +50,15 @@ def _plain(text: str) -> str:
 
 
 def _first_sentence(text: str) -> str:
+    """Up to the first ``.`` or ``;`` outside parentheses that ends a word (``e.g.``, ``i.e.`` go on)."""
     text = " ".join(text.split())
-    match = _SENTENCE.match(text)
-    sentence = match.group(1) if match else text
-    return sentence.rstrip(".;:")
+    depth = 0
+    for i, char in enumerate(text):
+        depth += {"(": 1, ")": -1, "[": 1, "]": -1}.get(char, 0)
+        if char in ".;" and depth <= 0 and (i + 1 == len(text) or text[i + 1] == " "):
+            if not text[max(0, i - 3) : i + 1].endswith(("e.g.", "i.e.")):
+                return text[:i]
+    return text.rstrip(".;:")
 
 
 def summary(obj: Any) -> str:
@@ -150,7 +154,7 @@ def leading_comment(path: Path) -> str:
 
 def _type(hint: Any) -> str:
     text = hint.__name__ if isinstance(hint, type) and not typing.get_args(hint) else str(hint)
-    return text.replace("typing.", "").replace("NoneType", "None")
+    return text.replace("typing.", "").replace("NoneType", "None").replace("|", "\\|")
 
 
 # ------------------------------------------------------------------------------------------ groups
@@ -198,7 +202,7 @@ def _member_target(group: str, member: str, path: Path, data: dict) -> list[str]
     return out
 
 
-def _table(schema: type, obj: Any, data: dict) -> list[str]:
+def _table(schema: type, obj: Any, data: dict | None) -> list[str]:
     """One row per parameter of a schema: type, default, the member's value, its description."""
     docs = arg_docs(obj)
     rows = []
@@ -211,10 +215,12 @@ def _table(schema: type, obj: Any, data: dict) -> list[str]:
             default = _code(f.default_factory())
         else:
             default = "required"
-        own = _code(data[f.name]) if f.name in data else ""
-        rows.append(f"| `{f.name}` | {_type(f.type)} | {default} | {own} | {docs.get(f.name, '')} |")
+        own = "" if data is None else (_code(data[f.name]) if f.name in data else "") + " | "
+        rows.append(f"| `{f.name}` | {_type(f.type)} | {default} | {own}{docs.get(f.name, '')} |")
     if not rows:
         return []
+    if data is None:
+        return ["| parameter | type | default | description |", "|---|---|---|---|", *rows, ""]
     return ["| parameter | type | default | this member | description |", "|---|---|---|---|---|", *rows, ""]
 
 
@@ -309,8 +315,8 @@ def top_level() -> list[str]:
             out.append(f"| `{key}` | {_code(value)} | {_plain(comments.get(key, ''))} |")
     scene = locate(SceneConf._target_)
     out += ["", f"`scene.*`: the parameters of [`{SceneConf._target_}`][{SceneConf._target_}] "]
-    out[-1] += f"({summary(scene)})." if summary(scene) else "."
-    out += ["", *_table(SceneConf, scene, {})]
+    out[-1] += f"({summary(scene).rstrip('.')})." if summary(scene) else "."
+    out += ["", *_table(SceneConf, scene, None)]
     return out
 
 
