@@ -81,7 +81,7 @@ def _api_nav(mods: list[tuple[str, str]]) -> list:
             out.append({key: entries(value) if isinstance(value, dict) else value})
         return out
 
-    return entries(tree)
+    return entries(tree[PACKAGE])  # the package page first, then one entry per module or subpackage
 
 
 # ------------------------------------------------------------------------------------------ studies
