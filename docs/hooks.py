@@ -3,7 +3,7 @@
 - **API reference**: one page per public module of ``contactmpc/`` (``::: contactmpc.x.y``, rendered by
   mkdocstrings from the docstrings, read statically by griffe), so a new module appears by itself.
 - **Studies**: every ``studies/<name>/README.md`` at the repository root (and ``studies/README.md`` if
-  there is one, else a generated index), at the same paths in the site, in a "Studies" section.
+  there is one, else a generated index of them), at the same paths in the site, in a "Studies" section.
 - **Files the pages link to**: a relative link or image whose target is not in the docs tree but exists
   at the same path in the repository (``../analysis/images/x.png`` from ``guide/*.md``, a study's
   ``figures/*.png``) is served from the repository, so no binary file is copied into ``docs/`` in git;
@@ -178,13 +178,10 @@ def _unlink(markdown: str, page: File, files: Files) -> str:
 
 
 def on_config(config):
-    """Append the generated sections to the nav: the API reference, then the studies (if any)."""
+    """Append the generated sections to the nav: the API reference, then the studies."""
     nav = list(config.nav or [])
     nav.append({"API reference": _api_nav(modules())})
-    reports = studies()
-    if reports:
-        index = f"{STUDIES}/README.md"
-        nav.append({"Studies": [index, *reports]})
+    nav.append({"Studies": [f"{STUDIES}/README.md", *studies()]})
     config.nav = nav
     return config
 
@@ -194,14 +191,13 @@ def on_files(files: Files, config) -> Files:
     for name, page in modules():
         files.append(File.generated(config, page, content=f"::: {name}\n"))
     reports = studies()
-    if reports:
-        index = ROOT / STUDIES / "README.md"
-        if index.is_file():
-            files.append(File.generated(config, f"{STUDIES}/README.md", abs_src_path=str(index)))
-        else:
-            files.append(File.generated(config, f"{STUDIES}/README.md", content=_studies_index(reports)))
-        for report in reports:
-            files.append(File.generated(config, report, abs_src_path=str(ROOT / report)))
+    index = ROOT / STUDIES / "README.md"
+    if index.is_file():
+        files.append(File.generated(config, f"{STUDIES}/README.md", abs_src_path=str(index)))
+    else:
+        files.append(File.generated(config, f"{STUDIES}/README.md", content=_studies_index(reports)))
+    for report in reports:
+        files.append(File.generated(config, report, abs_src_path=str(ROOT / report)))
     _add_linked(files, config)
     return files
 
