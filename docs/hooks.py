@@ -18,6 +18,7 @@ Nothing is written into the repository; the generated pages live only in the bui
 
 from __future__ import annotations
 
+import importlib
 import posixpath
 import re
 import sys
@@ -210,5 +211,6 @@ def on_page_markdown(markdown: str, page, config, files) -> str:
             sys.path.insert(0, str(DOCS))
         import config_groups
 
+        importlib.reload(config_groups)  # mkdocs serve: a changed conf/ shows on the next rebuild
         markdown = markdown.replace(MARKER, config_groups.markdown())
     return markdown
