@@ -112,14 +112,11 @@ def time_to_failure_cut_short(
     unless the rule fired earlier, one cut short after the span keeps what its log says.
 
     Args:
-        time: (N,) the logged instants up to ``end``, as :func:`time_to_failure`.
-        contacts: (N, L) the logged contacts, as :func:`time_to_failure`.
-        expected: (N, L) the logged expected contacts, as :func:`time_to_failure`.
+        time, contacts, expected: the log up to ``end`` ((N,), (N, L), (N, L)), as :func:`time_to_failure`.
         trial_time: (M,) the instants the whole trial would have logged (M >= N).
         trial_expected: (M, L) bool, the links expected in contact at those instants.
         end: the instant the trial was cut short (s).
-        gap: the failure rule's gap, as :func:`time_to_failure`.
-        min_expected: the failure rule's expected contacts, as :func:`time_to_failure`.
+        gap, min_expected: the failure rule, as :func:`time_to_failure`.
 
     Returns:
         The :class:`TTFResult`, its span the whole trial's.

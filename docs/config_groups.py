@@ -24,6 +24,8 @@ import typing
 from pathlib import Path
 from typing import Any
 
+from griffe_roles import split_grouped  # beside this file
+
 ROOT = Path(__file__).resolve().parent.parent
 CONF = ROOT / "conf"
 
@@ -82,7 +84,7 @@ def arg_docs(obj: Any) -> dict[str, str]:
     for doc in sources:
         if not doc:
             continue
-        lines = inspect.cleandoc(doc).splitlines()
+        lines = split_grouped(inspect.cleandoc(doc)).splitlines()
         for i, line in enumerate(lines):
             if line.strip() not in ("Args:", "Arguments:", "Parameters:"):
                 continue
@@ -98,14 +100,14 @@ def arg_docs(obj: Any) -> dict[str, str]:
                     break
                 match = re.match(r"(\w+)\s*(?:\([^)]*\))?:\s*(.*)", item.strip()) if lead == indent else None
                 if match:
-                    if name:
+                    if name and not " ".join(parts).lower().startswith("see "):  # a base documents it
                         found.setdefault(name, " ".join(parts))
                     name, parts = match.group(1), [match.group(2)]
                 elif name:
                     parts.append(item.strip())
-            if name:
+            if name and not " ".join(parts).lower().startswith("see "):
                 found.setdefault(name, " ".join(parts))
-    return {k: _plain(_first_sentence(v)) for k, v in found.items()}
+    return {k: _plain(_first_sentence(v)) for k, v in found.items() if v}
 
 
 # -------------------------------------------------------------------------------------------- YAML
@@ -224,24 +226,40 @@ def _table(schema: type, obj: Any, data: dict | None) -> list[str]:
     return ["| parameter | type | default | this member | description |", "|---|---|---|---|---|", *rows, ""]
 
 
-def _member_global(path: Path, data: dict) -> list[str]:
+def _member_global(group: str, path: Path, data: dict) -> list[str]:
     out = []
     comment = leading_comment(path)
     if comment:
         out += [_plain(comment), ""]
     sets = []
     for entry in data.get("defaults", []) or []:
+        if isinstance(entry, str) and entry != "_self_":  # another member of this group, or a config path
+            sets.append(f"all of `{group}={entry}`" if "/" not in entry else f"all of `{entry}`")
         if isinstance(entry, dict):
             for key, value in entry.items():
                 if key == "_self_":
                     continue
                 key = key.removeprefix("override ").lstrip("/")
                 sets.append(f"`{key}={_value(value)}`")
+    package = _package(group, path)
     for key, value in _flatten({k: v for k, v in data.items() if k != "defaults"}):
-        sets.append(f"`{key}`: {_code(value)}")
-    if sets:
-        out += ["Sets: " + "; ".join(sets) + ".", ""]
+        if not key:  # nothing of its own (``{}``)
+            continue
+        sets.append(f"`{package + '.' if package else ''}{key}`: {_code(value)}")
+    out += [
+        "Sets: " + "; ".join(sets) + "." if sets else "Sets nothing: the root config's defaults as they are.",
+        "",
+    ]
     return out
+
+
+def _package(group: str, path: Path) -> str:
+    """Where a member's keys go in the config (Hydra's ``# @package``; by default its group)."""
+    match = re.search(r"^#\s*@package\s+(\S+)", path.read_text(encoding="utf-8"), re.MULTILINE)
+    package = match.group(1) if match else "_group_"
+    if package == "_global_":
+        return ""
+    return package.replace("_group_", group.replace("/", "."))
 
 
 def markdown() -> str:
@@ -268,7 +286,7 @@ def markdown() -> str:
             if isinstance(data, dict) and "_target_" in data:
                 out += _member_target(group, path.stem, path, data)
             else:
-                out += _member_global(path, data if isinstance(data, dict) else {})
+                out += _member_global(group, path, data if isinstance(data, dict) else {})
             source = path.read_text(encoding="utf-8").rstrip()
             rel = path.relative_to(ROOT).as_posix()
             out += [

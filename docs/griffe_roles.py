@@ -19,6 +19,53 @@ import griffe
 
 PACKAGE = "contactmpc"
 _ROLE = re.compile(r":(?:py:)?(\w+):`(~?)([^`]+)`")
+_SECTIONS = ("Args:", "Arguments:", "Parameters:", "Other Parameters:", "Attributes:")
+_GROUPED = re.compile(r"^\w+\s*,")
+
+
+def split_grouped(text: str) -> str:
+    """One entry per name where an ``Args:`` entry documents several: ``start, end: when (s).`` ->
+    ``start: when (s).`` and ``end: when (s).`` (the names may run over several lines before the colon).
+    Google-style parsers take one name per entry; this docstring style groups names that share a
+    description."""
+    lines = text.split("\n")
+    out: list[str] = []
+    i, header, item = 0, None, None
+    while i < len(lines):
+        line = lines[i]
+        stripped, indent = line.strip(), len(line) - len(line.lstrip())
+        if stripped in _SECTIONS:
+            header, item = indent, None
+            out.append(line)
+            i += 1
+            continue
+        if header is not None and stripped and indent <= header:
+            header = None
+        if header is not None and stripped:
+            item = indent if item is None else item
+            if indent == item and _GROUPED.match(stripped):
+                head, j = stripped, i
+                while ":" not in head and j + 1 < len(lines) and lines[j + 1].strip():
+                    j += 1
+                    head += " " + lines[j].strip()
+                if ":" in head:
+                    names, description = head.split(":", 1)
+                    rest = []
+                    while (
+                        j + 1 < len(lines)
+                        and lines[j + 1].strip()
+                        and len(lines[j + 1]) - len(lines[j + 1].lstrip()) > item
+                    ):
+                        j += 1
+                        rest.append(lines[j])
+                    for name in filter(None, (n.strip() for n in names.split(","))):
+                        out.append(f"{' ' * item}{name}:{description}")
+                        out += rest
+                    i = j + 1
+                    continue
+        out.append(line)
+        i += 1
+    return "\n".join(out)
 
 
 def _member(node: Any, name: str) -> Any:
@@ -67,7 +114,8 @@ def _rendered(target: Any) -> str | None:
 
 
 class SphinxRoles(griffe.Extension):
-    """Rewrite the roles of every docstring of the package once it is loaded."""
+    """Rewrite every docstring of the package once it is loaded: roles (above), grouped parameters
+    (:func:`split_grouped`)."""
 
     def on_package(self, *, pkg: griffe.Module, loader: griffe.GriffeLoader, **kwargs: Any) -> None:
         self._walk(pkg, loader.modules_collection)
@@ -93,4 +141,4 @@ class SphinxRoles(griffe.Extension):
             path = _rendered(found) if (found := _lookup(obj, name.lstrip("."), collection)) else None
             return f"[`{shown}`][{path}]" if path else f"`{shown}`"
 
-        return _ROLE.sub(replace, text)
+        return _ROLE.sub(replace, split_grouped(text))

@@ -88,8 +88,7 @@ def backed_off(
         times: (T,) sample times (s).
         curves: (T, k) values at those times.
         offset: (k,) the full shift.
-        start: when the shift begins (s), ``start < end``.
-        end: when the shift is complete (s).
+        start, end: when the shift begins and when it is complete (s), ``start < end``.
 
     Returns:
         (T, k) curves.
@@ -355,9 +354,9 @@ class PCASplineSpace(SplineSpace):
         frozen_components: the first this many PCs get no noise. The authors' code lays its noise out
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
-
-    The other parameters (``sigma2``, ``root_sigma2``, ``whiten``, ``num_components``,
-    ``root_rotation_sigma2``, ``root_window``, ``release_*``) are :class:`SplineSpace`'s.
+        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
+            release_window, release_pause, release_open, release_reset, release_noise,
+            release_open_to, release_backoff, release_backoff_window: see :class:`SplineSpace`.
     """
 
     pca: PCABasis

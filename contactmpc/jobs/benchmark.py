@@ -273,9 +273,7 @@ def benchmark_planner(
         make_scene: builds the scene.
         output_dir: where ``benchmark.json`` goes.
         seed: seed of the sampling noise (the same candidates in every repeat).
-        sampler: as for a trial.
-        cost: as for a trial.
-        planner: as for a trial (its ``nthread`` is overridden).
+        sampler, cost, planner: as for a trial (the planner's ``nthread`` is overridden).
         threads: thread counts to measure (default ``[1, 2]``).
         repeats: timed repetitions of each measurement (the median is reported).
         physics_steps: plant steps per physics timing (the planning model runs as much simulated time).
