@@ -416,9 +416,9 @@ def test_a_records_variant_label_names_its_variant(tmp_path):
 
 def test_mann_whitney_is_exact_with_and_without_ties_and_six_seeds_can_pass_holm_over_eight():
     """No ties: scipy's exact U distribution; ties (every completed trial has TTF 1), one trial a side
-    included: the exact permutation distribution, which for fully separated 6 vs 6 samples is 2 / C(12, 6) either way; 6
-    seeds per cell can then pass Holm over 8 tests at 0.05 and 5 cannot. The Hodges-Lehmann shift is
-    the median pairwise difference."""
+    included: the exact permutation distribution, which for fully separated 6 vs 6 samples is
+    2 / C(12, 6) either way; 6 seeds per cell can then pass Holm over 8 tests at 0.05 and 5 cannot. The
+    Hodges-Lehmann shift is the median pairwise difference."""
     from math import comb
 
     from analysis.report import hodges_lehmann, mann_whitney
