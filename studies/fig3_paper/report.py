@@ -54,7 +54,11 @@ def report(study) -> str:
     if len(hard):
         out += [study.draw("fig3_paper_hard.png", lambda p: fig3.fig3(hard, p), "Fig. 3, the hard cells"), ""]
         out += [fig3.cell_table(hard), ""]
-        out += _tests_section(fig3.ttf_tests(hard, rng), fig3.completion_tests(hard), hard, f)
+        hard_ttf, hard_done = fig3.ttf_tests(hard, rng), fig3.completion_tests(hard)
+        out += _tests_section(hard_ttf, hard_done, hard, f)
+        out += ["### What the hard cells say", ""]
+        for fid in ordered(hard["fidelity"], fig3.FIDELITY_ORDER):
+            out += [_findings(hard, hard_ttf, hard_done, fid, f), ""]
     return "\n".join(out)
 
 
@@ -150,7 +154,7 @@ def _tests_section(ttf: pd.DataFrame, done: pd.DataFrame, df: pd.DataFrame, f) -
         "P(full > ablation) = U / nm (the common-language effect size) and the Hodges–Lehmann shift (the "
         "median of the pairwise TTF differences), each with a percentile bootstrap 95 % interval over "
         f"trials ({fig3.BOOTSTRAP_RESAMPLES} resamples within each cell, generator seed "
-        f"{fig3.BOOTSTRAP_SEED}, so the report is reproducible; at 6 trials a cell the interval is rough).",
+        f"{fig3.BOOTSTRAP_SEED}, so the report is reproducible; at a few trials a cell the interval is rough).",
         "",
         fig3.ttf_tests_markdown(ttf),
         "### Completion: `full` against each ablation",
