@@ -154,7 +154,8 @@ def _tests_section(ttf: pd.DataFrame, done: pd.DataFrame, df: pd.DataFrame, f) -
         "P(full > ablation) = U / nm (the common-language effect size) and the Hodges–Lehmann shift (the "
         "median of the pairwise TTF differences), each with a percentile bootstrap 95 % interval over "
         f"trials ({fig3.BOOTSTRAP_RESAMPLES} resamples within each cell, generator seed "
-        f"{fig3.BOOTSTRAP_SEED}, so the report is reproducible; at a few trials a cell the interval is rough).",
+        f"{fig3.BOOTSTRAP_SEED}, so the report is reproducible; at a few trials a cell the interval is "
+        "rough).",
         "",
         fig3.ttf_tests_markdown(ttf),
         "### Completion: `full` against each ablation",
