@@ -66,6 +66,7 @@ def test_summarize_groups_in_the_given_order_and_labels_the_statistic() -> None:
             Stat("ttf", "mean", name="TTF %", scale=100),
             Stat("ttf", "median_iqr", name="TTF %", scale=100),
             Stat("ttf", "n"),
+            Stat("ttf", "values", name="TTF", digits=2),
         ],
         order={"task": ["b"]},
     )
@@ -77,6 +78,7 @@ def test_summarize_groups_in_the_given_order_and_labels_the_statistic() -> None:
         "mean TTF %",
         "median (IQR) TTF %",
         "ttf",
+        "TTF",
     ]
     assert list(zip(table["task"], table["variant"], strict=True)) == [("b", "x"), ("a", "x"), ("a", "y")]
     ax = table.iloc[1]
@@ -87,7 +89,7 @@ def test_summarize_groups_in_the_given_order_and_labels_the_statistic() -> None:
     assert bx["completed"] == "1/2" and bx["median TTF %"] == pytest.approx(30.0)
     md = markdown(table).splitlines()
     assert md[0].startswith("| task | variant | completed | median TTF % | mean TTF %")
-    assert md[3] == "| a | x | 1/1 | 70.0 | 70.0 | 70.0 (55.0–85.0) | 2 |"
+    assert md[3] == "| a | x | 1/1 | 70.0 | 70.0 | 70.0 (55.0–85.0) | 2 | 1.00, 0.40 |"
 
 
 def test_a_stat_where_filters_and_an_empty_group_is_blank() -> None:
