@@ -122,3 +122,18 @@ def test_provenance_warns_when_records_span_revisions(tmp_path) -> None:
     two = one.assign(git_revision=["a" * 40, "b" * 40])
     assert "**The records span 2 code revisions**" in s.provenance(two)
     assert s.records().empty and s.render().startswith("# t\n")
+
+
+def test_glance_keeps_the_best_row_per_task(tmp_path) -> None:
+    """9 of 10 beats 1 of 1 (the Wilson interval's lower bound), whichever study gives it."""
+    for name, done in (("a", "1/1"), ("b", "9/10")):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "report.py").write_text(
+            'TITLE = "t"\nEXPERIMENTS = []\ndef report(study):\n  return ""\n'
+            'def glance(study):\n  return [{"task": "apple", '
+            f'"configuration": "{name}", "completed": "{done}"}}]\n'
+        )
+    lines = glance_table(tmp_path).splitlines()
+    assert len(lines) == 3 and "| apple | b | 9/10 |" in lines[2] and "[b](studies/b/README.md)" in lines[2]
+    readme = f"x\n{study_mod.GLANCE_BEGIN}\nold\n{study_mod.GLANCE_END}\ny\n"
+    assert with_glance(readme, "T\n") == f"x\n{study_mod.GLANCE_BEGIN}\nT\n{study_mod.GLANCE_END}\ny\n"
