@@ -141,7 +141,7 @@ def markdown(df: pd.DataFrame) -> str:
     tests = _in_order(significance_tests(df, family="condition", same_condition=True), "condition")
     lines = [
         "| task | variant | fidelity | completed | finished cleanly | median TTF % (IQR) "
-        "| object error in span / after span / whole trial (mm) | errors |",
+        "| mean object error in span / after span / whole trial (mm) | errors |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in summary.itertuples(index=False):

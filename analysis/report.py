@@ -334,9 +334,9 @@ def markdown_report(
             "finished cleanly",
             "median TTF %",
             "IQR TTF %",
-            "obj. pos. err. in span (mm)",
-            "after span (mm)",
-            "whole trial (mm)",
+            "mean obj. pos. err. in span (mm)",
+            "mean after span (mm)",
+            "mean whole trial (mm)",
         ],
         [
             [
