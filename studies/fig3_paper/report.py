@@ -174,7 +174,7 @@ def _why_barnard(df: pd.DataFrame, f) -> str:
         "well, which makes it conservative at a few trials a cell, while Barnard's keeps the level without "
         "that condition and so has more power at this n. The difference in completion rate (full − "
         "ablation, percentage points) has Newcombe's hybrid score 95 % interval (from the two Wilson "
-        "intervals)."
+        f"intervals). A starred p: too few to test (the smallest attainable p is not below {ALPHA:g})."
     )
     good = ok_trials(df)
     good = good[good["completed"].notna() & (good["fidelity"] == "paper")]
