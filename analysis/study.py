@@ -181,22 +181,38 @@ class Study:
         return list(rows(self)) if rows is not None else []
 
 
-def planned(experiment: str, root: Path = REPO / "conf" / "experiment") -> int | None:
-    """How many jobs ``experiment``'s sweep runs: the product of the sizes of its sweeper's parameters
-    (``a,b,c`` counts 3, ``range(n)`` n); ``None`` where it has no such config."""
+def sweep_params(experiment: str, root: Path = REPO / "conf" / "experiment") -> dict[str, list[str]]:
+    """The values each of ``experiment``'s sweeper parameters takes (``a,b,c`` -> 3 values, ``range(n)``
+    or ``range(a, b)`` -> the integers as text); empty where it has no such config."""
     import re
 
     from omegaconf import OmegaConf
 
     path = Path(root) / f"{experiment}.yaml"
     if not path.is_file():
-        return None
+        return {}
     params = OmegaConf.select(OmegaConf.load(path), "hydra.sweeper.params", default=None) or {}
+    out = {}
+    for key, value in params.items():
+        text = str(value).strip()
+        m = re.fullmatch(r"range\((\d+)(?:,\s*(\d+))?\)", text)
+        if m:
+            lo, hi = (int(m[1]), int(m[2])) if m[2] else (0, int(m[1]))
+            out[str(key)] = [str(i) for i in range(lo, hi)]
+        else:
+            out[str(key)] = [v.strip() for v in text.split(",")]
+    return out
+
+
+def planned(experiment: str, root: Path = REPO / "conf" / "experiment") -> int | None:
+    """How many jobs ``experiment``'s sweep runs: the product of the sizes of its sweeper's parameters;
+    ``None`` where it has no such config."""
+    params = sweep_params(experiment, root)
+    if not params:
+        return None
     total = 1
-    for value in params.values():
-        text = str(value)
-        m = re.fullmatch(r"range\((\d+)(?:,\s*(\d+))?\)", text.strip())
-        total *= (int(m[2]) - int(m[1]) if m[2] else int(m[1])) if m else len(text.split(","))
+    for values in params.values():
+        total *= len(values)
     return total
 
 

@@ -7,12 +7,13 @@ import inspect
 
 import numpy as np
 import pandas as pd
+from omegaconf import OmegaConf
 from scipy.stats import fisher_exact
 
 from analysis import paper_fig3 as fig3
 from analysis.aggregate import TASK_ORDER, ok_trials, ordered
 from analysis.inference import completion_test, smallest_u_p, wilson
-from analysis.study import planned
+from analysis.study import REPO, planned, sweep_params
 from contactmpc.metrics import time_to_failure
 
 TITLE = "Fig. 3 on the paper's data at the operating point that works"
@@ -24,6 +25,8 @@ HARD = "fig3_paper_hard"
 READINGS = {"paper": "the text's reading", "authors_code": "the authors' code's reading"}
 ABLATIONS = {"no_contact": "the contact term", "joint_space": "sampling in the reference's PCA basis"}
 ALPHA = fig3.ALPHA
+PRESETS = REPO / "conf" / "preset"
+CHALLENGES = REPO / "conf" / "challenge"
 
 
 def report(study) -> str:
@@ -63,17 +66,21 @@ def report(study) -> str:
 
 
 def _intro(f) -> str:
-    m = 8  # full against two ablations on four tasks, per reading
-    p6 = smallest_u_p(6, 6)
-    p5 = smallest_u_p(5, 5)
+    params = sweep_params("fig3_paper")
+    seeds = len(params.get("seed", [])) or 6
+    m = len(params.get("task", [])) * (len(params.get("variant", [])) - 1) or 8  # tests per reading
+    p_n, p_less = smallest_u_p(seeds, seeds), smallest_u_p(seeds - 1, seeds - 1)
+    samples = _conf(PRESETS / "paper_32samples.yaml", "planner.num_samples")
+    fewest = "the fewest" if m * p_n < ALPHA <= m * p_less else "a number of"
     return (
         "`experiment=fig3_paper` runs the paper's Fig. 3 at `preset=paper_32samples` (the paper's planner "
-        "with 32 samples, the operating point at which the method does the real apple): the four paper "
-        "tasks × `full` / `no_contact` / `joint_space` × both readings of the method (`fidelity=paper`, "
-        f"the text's; `fidelity=authors_code`, the authors' code's) × 6 seeds = {planned('fig3_paper')} "
-        "trials. Six is the fewest seeds with which an exact two-sided Mann–Whitney test can pass Holm's "
-        f"correction over the {m} tests of a reading at {ALPHA:g}: {m} × {f.p(p6)} = {f.p(m * p6)} at 6 "
-        f"vs 6, {m} × {f.p(p5)} = {f.p(m * p5)} at 5 vs 5. Seeds vary slowest, so a sweep stopped early "
+        f"with {samples} samples, the operating point at which the method does the real apple): the four "
+        "paper tasks × `full` / `no_contact` / `joint_space` × both readings of the method "
+        f"(`fidelity=paper`, the text's; `fidelity=authors_code`, the authors' code's) × {seeds} seeds = "
+        f"{planned('fig3_paper')} trials. {seeds} is {fewest} seeds with which an exact two-sided "
+        f"Mann–Whitney test can pass Holm's correction over the {m} tests of a reading at {ALPHA:g}: "
+        f"{m} × {f.p(p_n)} = {f.p(m * p_n)} at {seeds} vs {seeds}, {m} × {f.p(p_less)} = {f.p(m * p_less)} "
+        f"at {seeds - 1} vs {seeds - 1}. Seeds vary slowest, so a sweep stopped early "
         "holds "
         "every cell. Each reading is its own experiment: Holm's correction runs over the tests of one "
         "reading."
@@ -413,13 +420,27 @@ def _rate(g: pd.DataFrame | None) -> float:
     return k / n if n else float("nan")
 
 
+def _conf(path, key: str):
+    """A value of a config file, ``None`` where the file or the key is not there."""
+    return OmegaConf.select(OmegaConf.load(path), key, default=None) if path.is_file() else None
+
+
 def _hard_intro() -> str:
+    offset = _conf(CHALLENGES / "bottle_offset.yaml", "perturbation.object_offset")
+    gain = _conf(CHALLENGES / "doorknob_weak.yaml", "perturbation.gain_scale")
+    seeds = len(sweep_params(HARD).get("seed", [])) or "the experiment's"
+    bottle = f"started {100 * offset:.0f} cm off" if offset is not None else "displaced"
+    door = (
+        f"the finger servos' gains at {1 - gain:.1f} of the planner's model"
+        if gain is not None
+        else ("weakened finger servos")
+    )
     return (
         "Open-loop replay of the reference completes the paper bottle and doorknob, so those cells cannot "
         "show what closed-loop control adds. `experiment=fig3_paper_hard` runs the two cells where replay "
         "fails (`conf/challenge/`, chosen from a replay-only probe whose records were not kept): the bottle "
-        "started 3 cm off (`challenge=bottle_offset`) and the doorknob with the finger servos' gains at 0.7 "
-        "(`challenge=doorknob_weak`), × the three variants × both readings × 6 seeds."
+        f"{bottle} (`challenge=bottle_offset`) and the doorknob with {door} (`challenge=doorknob_weak`), "
+        f"× the three variants × both readings × {seeds} seeds."
     )
 
 
