@@ -26,6 +26,7 @@ RECORDED: tuple[tuple[str, str, str, str, str], ...] = (
         "The paper's ablation (Fig. 3) on the synthesised tasks",
         "1012785",
         "python launch.py experiment=ablation_lite hydra.sweep.dir=studies/fig3_lite/records/ablation_lite",
+        OVER_BUDGET,
     ),
     (
         "paper_mpc_vs_replay.md",
