@@ -89,8 +89,8 @@ def report(study) -> str:
 
 
 def _quoted(path: Path) -> str:
-    """A recorded passage, kept as it was written (its numbers are the record)."""
-    return path.read_text().rstrip("\n")
+    """A recorded passage, kept as it was written (its numbers are the record), as a block quote."""
+    return "\n".join(f"> {line}".rstrip() for line in path.read_text().rstrip("\n").splitlines())
 
 
 def _mpc_vs_replay(df: pd.DataFrame, study) -> str:
