@@ -248,15 +248,24 @@ def _with_fidelity(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _relabel(df: pd.DataFrame) -> pd.DataFrame:
-    """Old variant labels mapped to today's by the project's label map, where it has one
-    (``contactmpc.labels.VARIANT_LABELS``: old name -> new); records are left as they are otherwise."""
+    """Variant labels by the project's label map where it has one, so that an old record and a new one
+    of the same method group together: ``contactmpc.labels.method_name`` (a record's ``variant`` and
+    method groups -> the method's name), else a mapping ``contactmpc.labels.VARIANT_LABELS`` (old name
+    -> new). Without a label map, the records' labels as they are."""
     try:
         from contactmpc import labels  # type: ignore[attr-defined]
     except ImportError:
         return df
+    if "variant" not in df or not len(df):
+        return df
+    name = getattr(labels, "method_name", None)
+    if callable(name):
+        groups = [c for c in ("variant", "wrist", "shaping", "release") if c in df]
+        rows = df[groups].astype(object).where(df[groups].notna(), None).to_dict("records")
+        return df.assign(variant=[name(r) or r["variant"] for r in rows])
     mapping = getattr(labels, "VARIANT_LABELS", None)
-    if isinstance(mapping, dict) and "variant" in df:
-        df = df.assign(variant=df["variant"].map(lambda v: mapping.get(v, v)))
+    if isinstance(mapping, dict):
+        return df.assign(variant=df["variant"].map(lambda v: mapping.get(v, v)))
     return df
 
 
