@@ -137,3 +137,15 @@ def test_glance_keeps_the_best_row_per_task(tmp_path) -> None:
     assert len(lines) == 3 and "| apple | b | 9/10 |" in lines[2] and "[b](studies/b/README.md)" in lines[2]
     readme = f"x\n{study_mod.GLANCE_BEGIN}\nold\n{study_mod.GLANCE_END}\ny\n"
     assert with_glance(readme, "T\n") == f"x\n{study_mod.GLANCE_BEGIN}\nT\n{study_mod.GLANCE_END}\ny\n"
+
+
+def test_old_labels_go_through_the_projects_label_map(monkeypatch) -> None:
+    """Where ``contactmpc.labels.method_name`` exists, records' variants are renamed by it."""
+    import sys
+    import types
+
+    labels = types.ModuleType("contactmpc.labels")
+    labels.method_name = lambda r: {"release_flat": "full+release=flat"}.get(r["variant"], r["variant"])
+    monkeypatch.setitem(sys.modules, "contactmpc.labels", labels)
+    df = pd.DataFrame({"variant": ["release_flat", "full"], "release": [None, "none"]})
+    assert list(study_mod._relabel(df)["variant"]) == ["full+release=flat", "full"]
