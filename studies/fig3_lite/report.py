@@ -63,7 +63,7 @@ def report(study) -> str:
         "## Predictive sampling against replaying the reference, synthesised tasks",
         "",
     ]
-    mpc = df[df["sweep_dir"].astype(str).str.contains(MPC_VS_REPLAY)] if len(df) else df
+    mpc = df[df["record_path"].astype(str).str.contains(f"/{MPC_VS_REPLAY}/")] if len(df) else df
     if len(mpc):
         out += [_mpc_vs_replay(mpc, study), ""]
     else:
