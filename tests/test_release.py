@@ -241,7 +241,7 @@ def test_analysis_reads_records_with_and_without_the_new_fields(tmp_path):
     assert after["object_position_error_after_mean"] == pytest.approx(0.9)
     assert after["finished_cleanly_rate"] == pytest.approx(0.5)
     md = markdown_report(load_records(old, new))  # old and new in one table
-    assert "obj. pos. err. in span (mm)" in md and "whole trial (mm)" in md
+    assert "mean obj. pos. err. in span (mm)" in md and "mean whole trial (mm)" in md
     assert "| 20.0 | 900.0 | 200.0 |" in markdown_report(load_records(new))
     assert "| — | — | 200.0 |" in markdown_report(load_records(old))
     df = load_records(new)
