@@ -34,24 +34,45 @@ import pandas as pd
 
 from analysis._cli import fail, sweep_parser
 from analysis.aggregate import TASK_ORDER, ordered, select
-from analysis.paper_fig3 import FIDELITY_ORDER
+from analysis.paper_fig3 import FIDELITY_ORDER, fidelities, fidelity_of
 from analysis.paper_fig3 import load as fig3_load
 
 PAPER_POINT = (128, 2.5)  # samples, horizon (s)
 
 
 def load(*dirs: str | Path) -> pd.DataFrame:
-    """One row per trial record (:func:`analysis.paper_fig3.load`: variant, fidelity, the task without its
-    ``paper_`` prefix) with a planner config: task, variant, fidelity, samples, horizon, interval (s),
-    latency (s), seed, status, completed, finished cleanly (NaN where an older record lacks it), ttf,
-    errors, compute seconds, milestones reached (name -> bool)."""
+    """One row per trial record of ``dirs`` with a planner config (:func:`points`)."""
     for d in dirs:
         if not Path(d).is_dir():
             raise FileNotFoundError(f"no such sweep directory: {d}")
-    df = fig3_load(*dirs)
-    df = df[df["num_samples"].notna()].reset_index(drop=True)
+    try:
+        return points(fig3_load(*dirs))
+    except ValueError as err:
+        raise ValueError(f"{err} under {', '.join(map(str, dirs))}") from None
+
+
+def readings(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` (:func:`analysis.aggregate.load_records`) with the ``fidelity`` each record's config holds
+    (:func:`analysis.paper_fig3.fidelity_of`) as its ``condition`` and the ``paper_`` prefix dropped from
+    task names: what :func:`analysis.paper_fig3.load` makes of directories, made of a loaded table."""
+    df = df.copy()
+    known = fidelities()
+    df["fidelity"] = [fidelity_of(_config(p), known) for p in df["record_path"]]
+    df["condition"] = df["fidelity"]
+    df["task"] = df["task"].str.removeprefix("paper_")
+    return df
+
+
+def points(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per trial record (:func:`analysis.paper_fig3.load`, or :func:`readings` of a loaded table:
+    variant, fidelity, the task without its ``paper_`` prefix) with a planner config: task, variant,
+    fidelity, samples, horizon, interval (s), latency (s), seed, status, completed, finished cleanly (NaN
+    where an older record lacks it), ttf, errors, compute seconds, milestones reached (name -> bool)."""
+    if "fidelity" not in df:
+        df = readings(df)
+    df = df[df["num_samples"].notna()].reset_index(drop=True) if len(df) else df
     if df.empty:
-        raise ValueError(f"no trial records with a planner config under {', '.join(map(str, dirs))}")
+        raise ValueError("no trial records with a planner config")
     ok = df["status"] == "ok"
 
     def column(name: str) -> pd.Series:
@@ -85,11 +106,14 @@ def load(*dirs: str | Path) -> pd.DataFrame:
                 for c, ok_ in zip(clean, ok, strict=True)
             ],
             "ttf": column("ttf"),
+            "failure_time": column("failure_time") if "failure_time" in df else np.nan,
             "error_span": column("object_position_error_span_mean"),
             "error_after": column("object_position_error_after_mean"),
             "error_mean": column("object_position_error_mean"),
             "error_final": column("final_object_position_error"),
             "compute": cpu.fillna(pd.to_numeric(df["wall_seconds"], errors="coerce")),
+            "cpu": df["cpu"] if "cpu" in df else None,
+            "git_revision": df["git_revision"] if "git_revision" in df else None,
             "milestones": [
                 {c[10:]: bool(v) for c, v in row.items() if isinstance(v, bool | np.bool_)}
                 for row in df[milestones].to_dict("records")
@@ -98,12 +122,17 @@ def load(*dirs: str | Path) -> pd.DataFrame:
     )
 
 
-def _planner(path: str) -> dict:
-    """The ``config.planner`` node of the record at ``path`` (``{}`` where it has none)."""
+def _config(path: str) -> dict:
+    """The ``config`` of the record at ``path`` (``{}`` where it has none)."""
     try:
-        return (json.loads(Path(path).read_text()).get("config") or {}).get("planner") or {}
+        return json.loads(Path(path).read_text()).get("config") or {}
     except (OSError, ValueError):
         return {}
+
+
+def _planner(path: str) -> dict:
+    """The ``config.planner`` node of the record at ``path`` (``{}`` where it has none)."""
+    return _config(path).get("planner") or {}
 
 
 def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: float = 0.01) -> float:
