@@ -1,0 +1,315 @@
+"""Studies: one folder per research question, its report generated from its kept records.
+
+Layout (at the repository root)::
+
+    studies/<name>/report.py    the study's spec: TITLE, EXPERIMENTS, RECORDS (optional), QUESTION
+                                (optional; else the docstring's first line), report(study) -> str,
+                                glance(study) -> list[dict] (optional)
+    studies/<name>/records/     its kept trial records (<job dir>/trial.json)
+    studies/<name>/figures/     the figures the generator draws (PNG)
+    studies/<name>/README.md    the report, GENERATED: never edit it by hand
+    studies/README.md           the index of the studies, GENERATED
+
+Every number a report shows, in its tables or its prose, is computed from the records by its
+``report()``; ``tests/test_studies.py`` fails when a committed report differs from what its records make.
+
+Command line (from the repository root)::
+
+    python -m analysis.study [NAME ...] [--check] [--readme]
+
+re-makes the reports of the named studies (all by default) and the index; ``--check`` writes nothing
+and exits 1 naming each stale report (figures are drawn only without it); ``--readme`` also re-makes
+the "results at a glance" table in ``README.md`` (between ``<!-- glance:begin -->`` and
+``<!-- glance:end -->``; with ``--check``, checks it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import sys
+from collections.abc import Callable
+from functools import cached_property
+from pathlib import Path
+from types import ModuleType
+
+import pandas as pd
+
+from analysis.aggregate import load_records
+from analysis.summarize import Fmt
+from contactmpc.records import RECORD_NAME
+
+REPO = Path(__file__).resolve().parent.parent
+STUDIES = REPO / "studies"
+README = REPO / "README.md"
+GLANCE_BEGIN, GLANCE_END = "<!-- glance:begin -->", "<!-- glance:end -->"
+#: Columns of the README's "results at a glance" table: the keys of each row ``glance()`` returns.
+GLANCE_COLUMNS: tuple[str, ...] = (
+    "task",
+    "configuration",
+    "completed",
+    "finished cleanly",
+    "median CPU-s per trial",
+    "study",
+)
+
+
+class Study:
+    """One study folder (``studies/<name>``) and its spec (``report.py``).
+
+    Attributes:
+        name: the folder's name.
+        dir: the folder.
+        spec: the loaded ``report.py`` module.
+        drawing: whether figures are drawn (``False`` under ``--check`` and in tests).
+        fmt: number formats for the prose (:class:`analysis.summarize.Fmt`).
+    """
+
+    fmt = Fmt
+
+    def __init__(self, name: str, root: Path = STUDIES, drawing: bool = False) -> None:
+        self.name = name
+        self.root = Path(root)
+        self.dir = self.root / name
+        if not (self.dir / "report.py").is_file():
+            raise FileNotFoundError(f"no study {name!r}: {self.dir / 'report.py'} does not exist")
+        self.drawing = drawing
+
+    @cached_property
+    def spec(self) -> ModuleType:
+        path = self.dir / "report.py"
+        spec = importlib.util.spec_from_file_location(f"studies.{self.name}.report", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        for attr in ("TITLE", "EXPERIMENTS", "report"):
+            if not hasattr(module, attr):
+                raise ValueError(f"{path} defines no {attr}")
+        return module
+
+    @property
+    def title(self) -> str:
+        return self.spec.TITLE
+
+    @property
+    def question(self) -> str:
+        """One line: ``QUESTION``, else the first line of the spec's docstring."""
+        q = getattr(self.spec, "QUESTION", None) or (self.spec.__doc__ or "").strip().split("\n")[0]
+        return " ".join(q.split())
+
+    def record_dirs(self, *extra: str) -> list[Path]:
+        """The folders of records it reads: its own ``records/``, each of ``RECORDS`` and ``extra``
+        (``"other_study"`` or ``"other_study/records"``), those that exist."""
+        names = [*getattr(self.spec, "RECORDS", []), *extra]
+        dirs = [self.dir / "records"]
+        for n in names:
+            d = self.root / n
+            dirs.append(d / "records" if (d / "records").is_dir() else d)
+        return [d for d in dict.fromkeys(dirs) if d.is_dir()]
+
+    def record_paths(self, *extra: str) -> list[Path]:
+        """Every ``trial.json`` it reads (see :meth:`record_dirs`), sorted."""
+        return sorted(p for d in self.record_dirs(*extra) for p in d.rglob(RECORD_NAME) if p.is_file())
+
+    def records(self, *extra: str) -> pd.DataFrame:
+        """Its records (:meth:`record_dirs`) as :func:`analysis.aggregate.load_records` tables them,
+        with a ``fidelity`` column (the ``conf/fidelity`` member each trial ran under) and old labels
+        mapped by the project's label map where it has one. Empty (no rows) where there are none."""
+        dirs = self.record_dirs(*extra)
+        if not any(d.rglob(RECORD_NAME) for d in dirs):
+            return pd.DataFrame(columns=["task", "variant", "fidelity", "status", "ttf", "git_revision"])
+        return _relabel(_with_fidelity(load_records(*[d for d in dirs if any(d.rglob(RECORD_NAME))])))
+
+    def figure(self, name: str) -> Path:
+        """The path of figure ``name`` (``figures/`` created)."""
+        path = self.dir / "figures" / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return path
+
+    def draw(self, name: str, make: Callable[[Path], object], alt: str) -> str:
+        """Draw figure ``name`` with ``make(path)`` when :attr:`drawing`; the Markdown image link."""
+        if self.drawing:
+            make(self.figure(name))
+        return f"![{alt}](figures/{name})"
+
+    def provenance(self, df: pd.DataFrame) -> str:
+        """One line: how many records, from which code revisions and on which machines; a warning
+        sentence where they span more than one revision."""
+        if not len(df):
+            return "No records yet."
+        revs = df["git_revision"].fillna("unknown").astype(str).value_counts()
+        revs = revs.sort_index().sort_values(ascending=False, kind="stable")
+        rev_text = ", ".join(f"`{r[:7]}` ({n})" for r, n in revs.items())
+        machines = _machines(df)
+        line = (
+            f"{Fmt.plural(len(df), 'record')} from {Fmt.plural(len(revs), 'code revision')} "
+            f"({rev_text}) on {machines}."
+        )
+        if len(revs) > 1:
+            line += (
+                f" **The records span {len(revs)} code revisions**: a trial run again at another revision "
+                "can differ (a change of 1e-12 in a rollout can flip a trial's outcome)."
+            )
+        return line
+
+    def header(self) -> str:
+        """The generated header: title, where the report comes from, the commands that made the records."""
+        n = len(self.record_paths())
+        lines = [
+            f"# {self.title}",
+            "",
+            f"*Generated by `python -m analysis.study {self.name}` from {Fmt.plural(n, 'record')}; "
+            "do not edit.*",
+            "",
+        ]
+        experiments = list(self.spec.EXPERIMENTS)
+        if experiments:
+            lines += ["The records were made by:", "", "```"]
+            lines += [
+                e if e.startswith("python") else f"python launch.py experiment={e}" for e in experiments
+            ]
+            lines += ["```", ""]
+        return "\n".join(lines) + "\n"
+
+    def render(self) -> str:
+        """The whole report (header and body) as it would be written."""
+        body = self.spec.report(self)
+        return self.header() + body.rstrip("\n") + "\n"
+
+    def glance(self) -> list[dict]:
+        rows = getattr(self.spec, "glance", None)
+        return list(rows(self)) if rows is not None else []
+
+
+def _machines(df: pd.DataFrame) -> str:
+    """The machines the records ran on: CPU model with logical CPUs (and the host where recorded)."""
+    cols = [c for c in ("host", "cpu", "logical_cpus") if c in df]
+    if not cols:
+        return "unrecorded machines"
+    parts = df[cols].astype(object).where(df[cols].notna(), None)
+    names = []
+    for row in parts.itertuples(index=False):
+        d = dict(zip(cols, row, strict=True))
+        text = str(d.get("cpu") or "unknown CPU")
+        if d.get("logical_cpus") is not None:
+            text += f" ×{int(d['logical_cpus'])}"
+        if d.get("host"):
+            text = f"{d['host']} ({text})"
+        names.append(text)
+    counts = pd.Series(names).value_counts()
+    counts = counts.sort_index().sort_values(ascending=False, kind="stable")
+    return Fmt.listing([f"{m} ({n})" for m, n in counts.items()])
+
+
+def _with_fidelity(df: pd.DataFrame) -> pd.DataFrame:
+    from analysis.paper_fig3 import fidelities, fidelity_of
+
+    known = fidelities()
+    df = df.copy()
+    df["fidelity"] = [
+        fidelity_of(json.loads(Path(p).read_text()).get("config"), known) for p in df["record_path"]
+    ]
+    return df
+
+
+def _relabel(df: pd.DataFrame) -> pd.DataFrame:
+    """Old variant labels mapped to today's by the project's label map, where it has one
+    (``contactmpc.labels.VARIANT_LABELS``: old name -> new); records are left as they are otherwise."""
+    try:
+        from contactmpc import labels  # type: ignore[attr-defined]
+    except ImportError:
+        return df
+    mapping = getattr(labels, "VARIANT_LABELS", None)
+    if isinstance(mapping, dict) and "variant" in df:
+        df = df.assign(variant=df["variant"].map(lambda v: mapping.get(v, v)))
+    return df
+
+
+def names(root: Path = STUDIES) -> list[str]:
+    """The studies under ``root``: folders with a ``report.py``, sorted."""
+    return sorted(p.parent.name for p in Path(root).glob("*/report.py"))
+
+
+def index(root: Path = STUDIES) -> str:
+    """The index of the studies (``studies/README.md``)."""
+    lines = [
+        "# Studies",
+        "",
+        "*Generated by `python -m analysis.study`; do not edit.* Each study is a folder: its spec "
+        "(`report.py`), its kept records (`records/`), its figures and its report (`README.md`), "
+        "generated from the records.",
+        "",
+        "| study | title | records | question |",
+        "|---|---|--:|---|",
+    ]
+    for name in names(root):
+        s = Study(name, root)
+        lines.append(f"| [{name}]({name}/README.md) | {s.title} | {len(s.record_paths())} | {s.question} |")
+    return "\n".join(lines) + "\n"
+
+
+def glance_table(root: Path = STUDIES) -> str:
+    """The README's "results at a glance": every study's ``glance()`` rows, one table."""
+    lines = [
+        "| " + " | ".join(GLANCE_COLUMNS) + " |",
+        "|---|---|--:|--:|--:|---|",
+    ]
+    for name in names(root):
+        for row in Study(name, root).glance():
+            cells = {**row, "study": row.get("study") or f"[{name}](studies/{name}/README.md)"}
+            lines.append("| " + " | ".join(str(cells.get(c, "—")) for c in GLANCE_COLUMNS) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def with_glance(readme: str, table: str) -> str:
+    """``readme`` with the table between the glance markers replaced by ``table``.
+
+    Raises:
+        ValueError: the README has no glance markers.
+    """
+    if GLANCE_BEGIN not in readme or GLANCE_END not in readme:
+        raise ValueError(f"README.md has no {GLANCE_BEGIN} ... {GLANCE_END} block")
+    a = readme.index(GLANCE_BEGIN) + len(GLANCE_BEGIN)
+    b = readme.index(GLANCE_END)
+    return readme[:a] + "\n" + table + readme[b:]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m analysis.study", description=__doc__.split("\n\n")[0])
+    parser.add_argument("names", nargs="*", help="studies to re-make (default: all)")
+    parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a report is stale")
+    parser.add_argument("--readme", action="store_true", help="also the README's results-at-a-glance table")
+    args = parser.parse_args(argv)
+    known = names()
+    unknown = [n for n in args.names if n not in known]
+    if unknown:
+        print(f"no such study: {', '.join(unknown)} (studies: {', '.join(known)})", file=sys.stderr)
+        return 2
+    outputs: dict[Path, str] = {}
+    for name in args.names or known:
+        study = Study(name, drawing=not args.check)
+        outputs[study.dir / "README.md"] = study.render()
+    outputs[STUDIES / "README.md"] = index()
+    if args.readme:
+        try:
+            outputs[README] = with_glance(README.read_text(), glance_table())
+        except ValueError as err:
+            print(err, file=sys.stderr)
+            return 2
+    stale = [p for p, text in outputs.items() if not p.is_file() or p.read_text() != text]
+    if args.check:
+        for p in stale:
+            print(f"stale: {p.relative_to(REPO)} (run python -m analysis.study)")
+        if not stale:
+            print(f"{len(outputs)} reports are current")
+        return int(bool(stale))
+    for p in stale:
+        p.write_text(outputs[p])
+    print(
+        f"wrote {len(stale)} of {len(outputs)} reports" + "".join(f"\n  {p.relative_to(REPO)}" for p in stale)
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

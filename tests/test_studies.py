@@ -1,0 +1,122 @@
+"""The studies (``studies/<name>/``): each report is what its records make, and the framework's pieces
+(``analysis.summarize``, ``analysis.study``) do what they say."""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+
+from analysis import study as study_mod
+from analysis.study import README, STUDIES, Study, glance_table, index, names, with_glance
+from analysis.summarize import Fmt, Stat, markdown, summarize
+
+NAMES = names()
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_report_is_what_its_records_make(name: str) -> None:
+    """The committed ``studies/<name>/README.md`` is what ``python -m analysis.study <name>`` makes."""
+    study = Study(name)
+    committed = (study.dir / "README.md").read_text()
+    assert study.render() == committed, f"stale report: run python -m analysis.study {name}"
+
+
+def test_index_lists_every_study() -> None:
+    assert (STUDIES / "README.md").read_text() == index(), "stale index: run python -m analysis.study"
+
+
+def test_readme_glance_table_is_current() -> None:
+    text = README.read_text()
+    if study_mod.GLANCE_BEGIN not in text:
+        pytest.skip("README.md has no results-at-a-glance block")
+    assert with_glance(text, glance_table()) == text, "stale glance table: python -m analysis.study --readme"
+
+
+def test_a_readme_without_the_glance_block_is_refused() -> None:
+    with pytest.raises(ValueError, match="glance"):
+        with_glance("# README\n", "| t |\n")
+
+
+def test_an_unknown_study_is_one_line_and_exit_2(capsys) -> None:
+    assert study_mod.main(["no_such_study"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no such study: no_such_study" in err
+
+
+def _records() -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "task": ["b", "a", "a", "a", "b"],
+            "variant": ["x", "y", "x", "x", "x"],
+            "completed": [True, False, True, None, False],
+            "ttf": [0.5, 0.2, 1.0, 0.4, 0.1],
+        }
+    )
+
+
+def test_summarize_groups_in_the_given_order_and_labels_the_statistic() -> None:
+    table = summarize(
+        _records(),
+        by=["task", "variant"],
+        stats=[
+            Stat("completed", "count", name="completed"),
+            Stat("ttf", "median", name="TTF %", scale=100),
+            Stat("ttf", "mean", name="TTF %", scale=100),
+            Stat("ttf", "median_iqr", name="TTF %", scale=100),
+            Stat("ttf", "n"),
+        ],
+        order={"task": ["b"]},
+    )
+    assert list(table.columns) == [
+        "task",
+        "variant",
+        "completed",
+        "median TTF %",
+        "mean TTF %",
+        "median (IQR) TTF %",
+        "ttf",
+    ]
+    assert list(zip(table["task"], table["variant"], strict=True)) == [("b", "x"), ("a", "x"), ("a", "y")]
+    ax = table.iloc[1]
+    assert ax["completed"] == "1/1"  # the unrecorded completion is not counted
+    assert ax["median TTF %"] == pytest.approx(70.0) and ax["mean TTF %"] == pytest.approx(70.0)
+    assert ax["ttf"] == 2
+    bx = table.iloc[0]
+    assert bx["completed"] == "1/2" and bx["median TTF %"] == pytest.approx(30.0)
+    md = markdown(table).splitlines()
+    assert md[0].startswith("| task | variant | completed | median TTF % | mean TTF %")
+    assert md[3] == "| a | x | 1/1 | 70.0 | 70.0 | 70.0 (55.0–85.0) | 2 |"
+
+
+def test_a_stat_where_filters_and_an_empty_group_is_blank() -> None:
+    stat = Stat("ttf", "median", where=lambda g: g[g["ttf"] > 0.9])
+    table = summarize(_records(), by=["task"], stats=[stat])
+    assert table["median ttf"].iloc[0] == 1.0 and math.isnan(table["median ttf"].iloc[1])
+    assert markdown(table).splitlines()[-1] == "| b | — |"
+
+
+def test_an_unknown_statistic_or_column_is_refused() -> None:
+    with pytest.raises(ValueError, match="unknown statistic"):
+        Stat("ttf", "mode")
+    with pytest.raises(ValueError, match="no column seed"):
+        summarize(_records(), by=["seed"], stats=[Stat("ttf")])
+
+
+def test_prose_formats() -> None:
+    assert Fmt.listing(["a", "b", "c"]) == "a, b and c" and Fmt.plural(1, "trial") == "1 trial"
+    assert Fmt.pct(0.123) == "12.3" and Fmt.p(0.000123456) == "0.000123" and Fmt.span(1.02, 0.98) == "1"
+
+
+def test_provenance_warns_when_records_span_revisions(tmp_path) -> None:
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "report.py").write_text(
+        'TITLE = "t"\nEXPERIMENTS = []\ndef report(study):\n  return ""\n'
+    )
+    s = Study("s", tmp_path)
+    one = pd.DataFrame({"git_revision": ["a" * 40] * 2, "cpu": ["X"] * 2, "logical_cpus": [2, 2]})
+    assert "span" not in s.provenance(one) and s.provenance(one).startswith("2 records from 1 code revision")
+    two = one.assign(git_revision=["a" * 40, "b" * 40])
+    assert "**The records span 2 code revisions**" in s.provenance(two)
+    assert s.records().empty and s.render().startswith("# t\n")
