@@ -56,8 +56,9 @@ def readings(df: pd.DataFrame) -> pd.DataFrame:
     (:func:`analysis.paper_fig3.fidelity_of`) as its ``condition`` and the ``paper_`` prefix dropped from
     task names: what :func:`analysis.paper_fig3.load` makes of directories, made of a loaded table."""
     df = df.copy()
-    known = fidelities()
-    df["fidelity"] = [fidelity_of(_config(p), known) for p in df["record_path"]]
+    if "fidelity" not in df:
+        known = fidelities()
+        df["fidelity"] = [fidelity_of(_config(p), known) for p in df["record_path"]]
     df["condition"] = df["fidelity"]
     df["task"] = df["task"].str.removeprefix("paper_")
     return df
@@ -68,8 +69,7 @@ def points(df: pd.DataFrame) -> pd.DataFrame:
     variant, fidelity, the task without its ``paper_`` prefix) with a planner config: task, variant,
     fidelity, samples, horizon, interval (s), latency (s), seed, status, completed, finished cleanly (NaN
     where an older record lacks it), ttf, errors, compute seconds, milestones reached (name -> bool)."""
-    if "fidelity" not in df:
-        df = readings(df)
+    df = readings(df)
     df = df[df["num_samples"].notna()].reset_index(drop=True) if len(df) else df
     if df.empty:
         raise ValueError("no trial records with a planner config")
@@ -113,6 +113,7 @@ def points(df: pd.DataFrame) -> pd.DataFrame:
             "error_final": column("final_object_position_error"),
             "compute": cpu.fillna(pd.to_numeric(df["wall_seconds"], errors="coerce")),
             "cpu": df["cpu"] if "cpu" in df else None,
+            "record_path": df["record_path"],
             "git_revision": df["git_revision"] if "git_revision" in df else None,
             "milestones": [
                 {c[10:]: bool(v) for c, v in row.items() if isinstance(v, bool | np.bool_)}

@@ -73,3 +73,9 @@ def ratio(a: float, b: float, fmt: str = "{:.1f}") -> str:
     """``a / b`` formatted (``-`` where ``b`` is 0 or either is missing)."""
     v = _finite([a, b])
     return "-" if len(v) < 2 or v[1] == 0 else fmt.format(v[0] / v[1])
+
+
+def seeds_n(values: Iterable) -> str:
+    """``seed 2`` or ``seeds 3-5``: :func:`seeds` with its noun."""
+    s = {int(v) for v in values}
+    return f"seed{'s' if len(s) != 1 else ''} {seeds(s)}"

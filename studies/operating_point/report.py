@@ -67,10 +67,12 @@ LOST_TABLE = """\
 """
 
 
-def trials(study) -> pd.DataFrame:
-    """The map's trials: every record of the study and of :data:`RECORDS` with a planner config, in the
-    rows of :data:`FILTER` (:func:`analysis.operating_point.points`)."""
-    return select(op.points(study.records()), **FILTER)
+def trials(study) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The map's trials (every record of the study and of :data:`RECORDS` with a planner config, in the
+    rows of :data:`FILTER`: :func:`analysis.operating_point.points`) and their records."""
+    records = study.records()
+    df = select(op.points(records), **FILTER)
+    return df, records[records["record_path"].isin(df["record_path"])]
 
 
 def cell(df: pd.DataFrame, task: str, variant: str, fidelity: str, point: tuple) -> pd.DataFrame:
@@ -257,7 +259,7 @@ def chosen(df: pd.DataFrame) -> str:
 
 
 def report(study) -> str:
-    df = trials(study)
+    df, records = trials(study)
     table = op.summary(df)
     cpu_h = pd.to_numeric(df["compute"], errors="coerce").sum() / 3600
     return (
@@ -268,7 +270,7 @@ def report(study) -> str:
         "single-threaded, two at a time. The chosen point's full-method trials come from the Fig. 3 study's "
         "records (the apple, bottle and stapler at 32 x 2.5 s) and the stapler's 32-sample trials from the "
         "stapler study's; the stapler rows are explained there.\n\n"
-        f"{study.provenance(df)}\n\n"
+        f"{study.provenance(records)}\n\n"
         f"## The map\n\n**{len(df)} trials, {cpu_h:.2f} CPU-hours** (compute: the trial's CPU seconds):\n\n"
         + op.markdown(table, op.cheapest(table))
         + "\n## What the map shows\n\n"
@@ -287,7 +289,7 @@ def report(study) -> str:
 
 def glance(study) -> list[dict]:
     """The apple at ``preset=paper_32samples`` (the full method, the text's reading)."""
-    g = cell(trials(study), "apple", "full", "paper", CHOSEN)
+    g = cell(trials(study)[0], "apple", "full", "paper", CHOSEN)
     return [
         {
             "task": "paper apple",

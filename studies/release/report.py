@@ -274,14 +274,17 @@ before/after of nearly one trial:
 def report(study) -> str:
     f = frames(study)
     paper, lite, flat = f["paper"], f["lite"], f["flat"]
-    image = study.figure("release_paper.png")
-    release.release_figure(paper, image)
+    image = study.draw(
+        "release_paper.png",
+        lambda path: release.release_figure(paper, path),
+        "the end of the paper apple and bottle, per trial",
+    )
     every = pd.concat([paper, lite, flat]).drop_duplicates("record_path")
     return (
         INTRO
         + f"\n{study.provenance(every)}\n\n"
         "## Designs 4-7 on the paper apple and bottle\n\n"
-        f"![the end of the paper apple and bottle, per trial](figures/{image.name})\n\n"
+        f"{image}\n\n"
         + release.markdown(release.release_table(paper))
         + "\nPer seed (object error after the span, mm; clean = finished cleanly, done = completed but not"
         " settled, failed = not completed):\n\n"
