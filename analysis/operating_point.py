@@ -36,6 +36,7 @@ from analysis._cli import fail, sweep_parser
 from analysis.aggregate import TASK_ORDER, ordered, select
 from analysis.paper_fig3 import FIDELITY_ORDER, fidelities, fidelity_of
 from analysis.paper_fig3 import load as fig3_load
+from analysis.summarize import Stat, summarize
 
 PAPER_POINT = (128, 2.5)  # samples, horizon (s)
 
@@ -141,39 +142,53 @@ def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: 
     return samples * max(1, round(horizon / planner_dt)) / interval
 
 
+#: The map's keys: a point of one task, variant and reading.
+POINT_KEYS = ["task", "variant", "fidelity", "samples", "horizon", "interval", "latency"]
+#: Per point (:func:`summary`): column -> how it is reduced over the point's trials.
+POINT_STATS: dict[str, Stat] = {
+    "trials": Stat("seed", "n"),
+    "errors": Stat("_error", "sum"),
+    "completed": Stat("completed", "sum"),
+    "finished_cleanly": Stat("finished_cleanly", "sum"),  # NaN (unrecorded) counts 0
+    "cleanly_known": Stat("_cleanly_known", "sum"),
+    "ttf_median": Stat("ttf", "median"),
+    "error_span_mm": Stat("error_span", "median", scale=1e3),
+    "error_after_mm": Stat("error_after", "median", scale=1e3),
+    "error_mean_mm": Stat("error_mean", "median", scale=1e3),
+    "error_final_mm": Stat("error_final", "median", scale=1e3),
+    "compute_s": Stat("compute", "median"),
+}
+
+
 def summary(df: pd.DataFrame) -> pd.DataFrame:
-    """Per task, fidelity and point: trials, completed, finished cleanly, milestones, TTF, errors (medians
-    over the trials: in the span, after it, whole trial, final), compute."""
-    keys = ["task", "variant", "fidelity", "samples", "horizon", "interval", "latency"]
-    rows = []
-    for key, g in df.groupby(keys, sort=False):
-        reached: dict[str, int] = {}
-        for m in g["milestones"]:
-            for name, hit in m.items():
-                reached[name] = reached.get(name, 0) + int(hit)
-        row = dict(zip(keys, key, strict=True))
-        row.update(
-            trials=len(g),
-            errors=int((g["status"] != "ok").sum()),
-            completed=int(g["completed"].sum()),
-            finished_cleanly=int(g["finished_cleanly"].sum()),  # NaN (unrecorded) counts 0
-            cleanly_known=int(g["finished_cleanly"].notna().sum()),
-            milestones=", ".join(f"{k} {v}" for k, v in reached.items()),
-            ttf_median=float(pd.to_numeric(g["ttf"], errors="coerce").median()),
-            error_span_mm=1e3 * float(pd.to_numeric(g["error_span"], errors="coerce").median()),
-            error_after_mm=1e3 * float(pd.to_numeric(g["error_after"], errors="coerce").median()),
-            error_mean_mm=1e3 * float(pd.to_numeric(g["error_mean"], errors="coerce").median()),
-            error_final_mm=1e3 * float(pd.to_numeric(g["error_final"], errors="coerce").median()),
-            compute_s=float(pd.to_numeric(g["compute"], errors="coerce").median()),
-            cost=steps_per_second(int(key[3]), float(key[4]), float(key[5])),
-        )
-        rows.append(row)
-    out = pd.DataFrame(rows)
+    """Per task, variant, fidelity and point (:data:`POINT_STATS` on :func:`analysis.summarize.summarize`):
+    trials, completed, finished cleanly, milestones, TTF, errors (medians over the trials: in the span,
+    after it, whole trial, final), compute (median); sorted by task, variant, fidelity and cost."""
+    df = df.assign(_error=df["status"] != "ok", _cleanly_known=df["finished_cleanly"].notna())
+    out = summarize(df, by=POINT_KEYS, stats=POINT_STATS)
+    for c in ("errors", "completed", "finished_cleanly", "cleanly_known"):
+        out[c] = out[c].fillna(0).astype(int)
+    keys = df[POINT_KEYS].astype(object)
+    out["milestones"] = [
+        _reached(df[(keys == pd.Series(dict(zip(POINT_KEYS, row, strict=True)))).all(axis=1)]["milestones"])
+        for row in out[POINT_KEYS].itertuples(index=False)
+    ]
+    out["cost"] = [steps_per_second(int(s), float(h), float(i)) for s, h, i in
+                   zip(out["samples"], out["horizon"], out["interval"], strict=True)]  # fmt: skip
     task_rank = {t: i for i, t in enumerate(ordered(out["task"], TASK_ORDER))}
     fid_rank = {f: i for i, f in enumerate(ordered(out["fidelity"], FIDELITY_ORDER))}
     out["_t"], out["_f"] = out["task"].map(task_rank), out["fidelity"].map(fid_rank)
     order = ["_t", "variant", "_f", "cost"]
     return out.sort_values(order).drop(columns=["_t", "_f"]).reset_index(drop=True)
+
+
+def _reached(milestones: pd.Series) -> str:
+    """``lifted 3, handed_off 2``: how many trials reached each milestone."""
+    reached: dict[str, int] = {}
+    for m in milestones:
+        for name, hit in m.items():
+            reached[name] = reached.get(name, 0) + int(hit)
+    return ", ".join(f"{k} {v}" for k, v in reached.items())
 
 
 def cheapest(table: pd.DataFrame, need: float = 5 / 6) -> pd.DataFrame:
@@ -213,8 +228,8 @@ def markdown(table: pd.DataFrame, best: pd.DataFrame) -> str:
     """The map and the cheapest points as markdown tables."""
     lines = [
         "| task | variant | fidelity | samples x horizon | interval | latency | completed | finished cleanly "
-        "| milestones | TTF median | object error in span / after span / whole trial / final (mm, median) "
-        "| compute per trial (s) | rollout steps per s |",
+        "| milestones | median TTF | median object error in span / after span / whole trial / final (mm) "
+        "| median compute per trial (s) | rollout steps per s |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table.itertuples():

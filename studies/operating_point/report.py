@@ -3,6 +3,8 @@ compute. The apple's map (both readings), the bottle and the stapler beside it."
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 
 from analysis import operating_point as op
@@ -12,10 +14,12 @@ from analysis.prose import median, of, seeds, span
 TITLE = "The paper's operating point on the real data"
 EXPERIMENTS = [
     "python launch.py experiment=operating_point hydra.sweep.dir=studies/operating_point/records",
-    "python launch.py experiment=operating_point variant=wrist_acquire hydra.sweeper.params.task=paper_stapler"
+    "python launch.py experiment=operating_point variant=wrist_acquire "
+    "hydra.sweeper.params.task=paper_stapler"
     " hydra.sweeper.params.fidelity=paper 'hydra.sweeper.params.operating_point=\"s64,paper\"'"
     " 'hydra.sweeper.params.seed=\"0,1,2,3,4,5\"' hydra.sweep.dir=studies/operating_point/records",
-    "python launch.py experiment=operating_point variant=wrist_clearance hydra.sweeper.params.task=paper_stapler"
+    "python launch.py experiment=operating_point variant=wrist_clearance "
+    "hydra.sweeper.params.task=paper_stapler"
     " hydra.sweeper.params.fidelity=paper 'hydra.sweeper.params.operating_point=\"paper,h1,h1_5,s64,i70\"'"
     " hydra.sweep.dir=studies/operating_point/records",
     "python launch.py experiment=operating_point variant=clearance hydra.sweeper.params.task=paper_stapler"
@@ -36,35 +40,7 @@ READING = {"paper": "the text's reading", "authors_code": "the code's reading"}
 #: The first map (47 trials, 2026-11-24/25) as the analysis printed it: its records were lost with the
 #: machine that ran them, before sweep records were kept.
 LOST_REVISION = "d8b810f"
-LOST_TABLE = """\
-| task | variant | fidelity | samples x horizon | interval | latency | completed | finished cleanly | milestones | TTF median | object error in span / after span / whole trial / final (mm, median) | compute per trial (s) | rollout steps per s |
-|---|---|---|---|---|---|---|---|---|---|---|---|---|
-| apple | full | paper | 32 x 2.5 s | 96 ms | 96 ms | 6/6 | 2/4 (2 unrecorded) | lifted 6, handed_off 6 | 0.82 | 24 / 473 / 50 / 100 | 160 | 83,333 |
-| apple | full | paper | 128 x 1 s | 96 ms | 96 ms | 1/2 | - | lifted 2, handed_off 1 | 0.62 | - / - / 292 / 955 | 415 | 133,333 |
-| apple | full | paper | 64 x 2.5 s | 96 ms | 96 ms | 2/3 | 1/1 (2 unrecorded) | lifted 2, handed_off 2 | 1.00 | 21 / 14 / 141 / 40 | 649 | 166,667 |
-| apple | full | paper | 128 x 1.5 s | 96 ms | 96 ms | 2/2 | - | lifted 2, handed_off 2 | 1.00 | - / - / 18 / 27 | 742 | 200,000 |
-| apple | full | paper | 128 x 2.5 s | 96 ms | 96 ms | 3/3 | 1/2 (1 unrecorded) | lifted 3, handed_off 3 | 1.00 | 22 / 451 / 30 / 81 | 754 | 333,333 |
-| apple | full | paper | 128 x 2.5 s | 70 ms | 0 ms | 1/1 | - | lifted 1, handed_off 1 | 1.00 | - / - / 28 / 48 | 1040 | 457,143 |
-| apple | full | paper | 128 x 2.5 s | 70 ms | 70 ms | 1/1 | - | lifted 1, handed_off 1 | 1.00 | - / - / 23 / 32 | 1026 | 457,143 |
-| apple | full | paper | 128 x 2.5 s | 50 ms | 50 ms | 1/1 | - | lifted 1, handed_off 1 | 1.00 | - / - / 41 / 104 | 1618 | 640,000 |
-| apple | full | authors_code | 32 x 2.5 s | 96 ms | 96 ms | 6/6 | 4/4 (2 unrecorded) | lifted 6, handed_off 6 | 1.00 | 19 / 9 / 13 / 11 | 149 | 83,333 |
-| apple | full | authors_code | 128 x 1 s | 96 ms | 96 ms | 1/2 | - | lifted 1, handed_off 1 | 0.51 | - / - / 94 / 101 | 429 | 133,333 |
-| apple | full | authors_code | 64 x 2.5 s | 96 ms | 96 ms | 3/3 | 1/1 (2 unrecorded) | lifted 3, handed_off 3 | 1.00 | 15 / 13 / 11 / 13 | 586 | 166,667 |
-| apple | full | authors_code | 128 x 1.5 s | 96 ms | 96 ms | 2/2 | - | lifted 2, handed_off 2 | 1.00 | - / - / 9 / 4 | 680 | 200,000 |
-| apple | full | authors_code | 128 x 2.5 s | 96 ms | 96 ms | 3/3 | 2/2 (1 unrecorded) | lifted 3, handed_off 3 | 1.00 | 18 / 16 / 11 / 12 | 577 | 333,333 |
-| apple | full | authors_code | 128 x 2.5 s | 70 ms | 0 ms | 1/1 | - | lifted 1, handed_off 1 | 1.00 | - / - / 11 / 13 | 1107 | 457,143 |
-| apple | full | authors_code | 128 x 2.5 s | 70 ms | 70 ms | 1/1 | - | lifted 1, handed_off 1 | 1.00 | - / - / 11 / 11 | 1120 | 457,143 |
-| apple | full | authors_code | 128 x 2.5 s | 50 ms | 50 ms | 1/1 | - | lifted 1, handed_off 1 | 1.00 | - / - / 12 / 13 | 1903 | 640,000 |
-| bottle | full | paper | 32 x 2.5 s | 96 ms | 96 ms | 2/3 | 0/3 | lifted 3, poured 2 | 0.15 | 34 / 833 / 187 / 1040 | 216 | 83,333 |
-| bottle | full | paper | 128 x 1.5 s | 96 ms | 96 ms | 1/3 (1 diverged or failed) | 0/3 | lifted 2, poured 1 | 0.67 | 475 / 1061 / 495 / 1231 | 284 | 200,000 |
-| bottle | full | paper | 128 x 2.5 s | 96 ms | 96 ms | 3/3 | 1/3 | lifted 3, poured 3 | 1.00 | 22 / 817 / 174 / 989 | 815 | 333,333 |
-
-| task | variant | fidelity | paper point(s) | cheapest point that completes | completed |
-|---|---|---|---|---|---|
-| apple | full | paper | 96 ms: 3/3; 70 ms (no latency): 1/1; 70 ms: 1/1; 50 ms: 1/1 | 32 x 2.5 s, every 96 ms (latency 96 ms) | 6/6 |
-| apple | full | authors_code | 96 ms: 3/3; 70 ms (no latency): 1/1; 70 ms: 1/1; 50 ms: 1/1 | 32 x 2.5 s, every 96 ms (latency 96 ms) | 6/6 |
-| bottle | full | paper | 96 ms: 3/3 | 128 x 2.5 s, every 96 ms (latency 96 ms) | 3/3 |
-"""
+LOST_TABLE = (Path(__file__).resolve().parent / "not_kept.md").read_text()
 
 
 def trials(study) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -112,7 +88,8 @@ def _far(g: pd.DataFrame, metres: float = 0.3) -> str:
     """Completed trials whose object ends more than ``metres`` from the reference's final pose."""
     far = g[g["completed"] & (g["error_final"] > metres)].sort_values("seed")
     return "; ".join(
-        f"seed {int(r.seed)} completes but the apple ends {r.error_final:.1f} m from the reference's final pose"
+        f"seed {int(r.seed)} completes but the apple ends {r.error_final:.1f} m from the reference's final "
+        f"pose"
         for r in far.itertuples()
     )
 
@@ -155,8 +132,13 @@ def findings(df: pd.DataFrame) -> str:
 
     # the stapler
     acq = cell(df, "stapler", "wrist_acquire", "paper", PAPER)
-    clr = {p: cell(df, "stapler", "wrist_clearance", "paper", p) for p in _points(df, "stapler", "wrist_clearance")}
-    acq_pts = {p: cell(df, "stapler", "wrist_acquire", "paper", p) for p in _points(df, "stapler", "wrist_acquire")}
+    clr = {
+        p: cell(df, "stapler", "wrist_clearance", "paper", p)
+        for p in _points(df, "stapler", "wrist_clearance")
+    }
+    acq_pts = {
+        p: cell(df, "stapler", "wrist_acquire", "paper", p) for p in _points(df, "stapler", "wrist_acquire")
+    }
     cheaper = [
         f"{p[0]} x {p[1]:g} s{'' if p[2] == 0.096 else f' every {1e3 * p[2]:.0f} ms'} {done(g)}"
         for p, g in sorted(clr.items(), key=lambda kv: op.steps_per_second(*kv[0][:3]))
@@ -240,7 +222,8 @@ def chosen(df: pd.DataFrame) -> str:
     where = f" on one thread of {', '.join(map(str, cpu))}" if len(cpu) else ""
     return (
         f"**The chosen point: `preset=paper_32samples`** — the paper's planner (2.5 s horizon, each plan "
-        f"applied 96 ms after its state, a plan every 96 ms) with **32 samples instead of 128**. It completes "
+        f"applied 96 ms after its state, a plan every 96 ms) with **32 samples instead of 128**. It "
+        f"completes "
         f"the real apple in {' and '.join(done(ap[f]) + ' under ' + READING[f] for f in READING)}, as the "
         f"paper point does in every seed it was run ({' and '.join(done(pp[f]) for f in READING)}), at a "
         f"quarter of the paper's rollouts ({op.steps_per_second(*CHOSEN[:3]):,.0f} rollout steps per "
@@ -248,7 +231,8 @@ def chosen(df: pd.DataFrame) -> str:
         f"{median(pd.concat(ap.values())['compute'], '{:.1f}', 1 / 60)} CPU-minutes per apple trial, median"
         f"{where}, against {median(pd.concat(pp.values())['compute'], '{:.1f}', 1 / 60)}). It is the "
         "cheapest point of the map, and no cheaper one was tried. **On the real bottle it is not as sure**: "
-        f"{done(bottle)} under the text's reading at this point (the failed seeds: {_failed(bottle) or 'none'}). "
+        f"{done(bottle)} under the text's reading at this point (the failed seeds: "
+        f"{_failed(bottle) or 'none'}). "
         "And a completion count is a few draws, not a guarantee: a trial's outcome turns on its planner's "
         "choices at contact events, so a change that moves the nominal plan by a rounding error can flip a "
         "seed (seen once in a refit of the release, whose records were not kept). Fig. 3 at this preset "
@@ -281,7 +265,7 @@ def report(study) -> str:
         f"Recorded at commit {LOST_REVISION} (README, 2026-11-24/25), records not kept: 47 trials whose "
         "records were lost with the machine that ran them, before sweep records were kept. *finished "
         "cleanly* and the span / after-span errors only exist in records made after those fields did "
-        "(\"unrecorded\" counts the older ones); compute is the trial's CPU seconds where the record had "
+        '("unrecorded" counts the older ones); compute is the trial\'s CPU seconds where the record had '
         "them, else its wall time with three or four such jobs on 2 cores. Re-make with: "
         f"`{EXPERIMENTS[0]}` (the kept map above is that sweep re-run).\n\n" + LOST_TABLE
     )

@@ -17,11 +17,13 @@ TITLE = "Letting go: the release designs"
 EXPERIMENTS = [
     "python launch.py experiment=release_reset hydra.sweep.dir=studies/release/records/release_reset",
     "python launch.py experiment=release hydra.sweep.dir=studies/release/records/release",
-    "python launch.py experiment=release variant=release_scheduled hydra.sweep.dir=studies/release/records/release",
+    "python launch.py experiment=release variant=release_scheduled "
+    "hydra.sweep.dir=studies/release/records/release",
     "python launch.py experiment=release_backoff hydra.sweep.dir=studies/release/records/release_backoff",
     "python launch.py experiment=release_backoff sampler.release_backoff=0"
     " hydra.sweep.dir=studies/release/records/release_flat",
-    "python launch.py experiment=release_lite 'hydra.sweeper.params.variant=\"full,release_scheduled,release_backoff\"'"
+    "python launch.py experiment=release_lite "
+    "'hydra.sweeper.params.variant=\"full,release_scheduled,release_backoff\"'"
     " hydra.sweep.dir=studies/release/records/release_lite",
     "python launch.py experiment=release_lite 'hydra.sweeper.params.variant=\"release_backoff\"'"
     " sampler.release_backoff=0 hydra.sweep.dir=studies/release/records/release_flat_lite",
@@ -33,26 +35,7 @@ PAPER_VARIANTS = ["full", "release_reset", "release", "release_scheduled", "rele
 DESIGN = {"release_reset": 4, "release": 5, "release_scheduled": 6, "release_backoff": 7, "release_flat": 8}
 
 LOST_REVISION = "d8b810f"
-LOST_TABLES = """\
-Design 3 on the paper apple (`variant=release sampler.release_reset=false` at `preset=paper_32samples`):
-
-| task | variant | fidelity | n | completed | settled | finished cleanly | object error: span / after span / final (median) |
-|---|---|---|---|---|---|---|---|
-| apple | full | paper | 3 | 3/3 | 1/3 | 1/3 | 27 / 80 / 82 mm |
-| apple | release | paper | 3 | 2/3 | 1/3 | 1/3 | 27 / 78 / 79 mm |
-
-Design 1 on the same seeds: 0/3 finished cleanly (`release_wrist`); design 2: 0/3 (`release_pause`). On the
-synthetic doorknob (`experiment=release_lite`, lite, 6 seeds) design 3, then design 1:
-
-| task | variant | fidelity | n | completed | settled | finished cleanly | object error: span / after span / final (median) |
-|---|---|---|---|---|---|---|---|
-| doorknob | full | paper | 6 | 6/6 | 0/6 | 0/6 | 24 / 79 / 150 x 1e-3 (rad, or m for a slide) |
-| doorknob | release | paper | 4 | 4/4 | 0/4 | 0/4 | 27 / 25 / 17 x 1e-3 (rad, or m for a slide) |
-
-| task | variant | fidelity | n | completed | settled | finished cleanly | object error: span / after span / final (median) |
-|---|---|---|---|---|---|---|---|
-| doorknob | release | paper | 6 | 6/6 | 2/6 | 2/6 | 24 / 31 / 42 x 1e-3 (rad, or m for a slide) |
-"""
+LOST_TABLES = (Path(__file__).resolve().parent / "not_kept.md").read_text()
 
 
 def _config(path: str) -> dict:
@@ -89,7 +72,11 @@ def frames(study) -> dict[str, pd.DataFrame]:
         ],
         ignore_index=True,
     )
-    return {"paper": paper, "lite": select(door, variant="full,release_scheduled,release_backoff"), "flat": flat}
+    return {
+        "paper": paper,
+        "lite": select(door, variant="full,release_scheduled,release_backoff"),
+        "flat": flat,
+    }
 
 
 def trial(df: pd.DataFrame, task: str, variant: str, seed: int) -> pd.Series | None:
@@ -150,7 +137,11 @@ def paper_findings(df: pd.DataFrame) -> str:
     pre = [
         s
         for s in full_done.index[~full_done]
-        if all(not _flag(df, "bottle", v, "completed").get(s, False) for v in PAPER_VARIANTS if len(after(df, "bottle", v)))
+        if all(
+            not _flag(df, "bottle", v, "completed").get(s, False)
+            for v in PAPER_VARIANTS
+            if len(after(df, "bottle", v))
+        )
     ]
     bk = after(df, "bottle", "release_backoff")
     bk_done = _flag(df, "bottle", "release_backoff", "completed")
@@ -158,21 +149,29 @@ def paper_findings(df: pd.DataFrame) -> str:
     fallen = bk_done & ~bk_clean
     lines = [
         "- **Design 7 (`variant=release_backoff`) lets go of both objects.** On the apple it finishes "
-        f"{clean(df, 'apple', 'release_backoff')} cleanly against the full method's {clean(df, 'apple', 'full')} "
+        f"{clean(df, 'apple', 'release_backoff')} cleanly against the full method's "
+        f"{clean(df, 'apple', 'full')} "
         f"(error after the span {span(after(df, 'apple', 'release_backoff'), scale=1e3)} mm, mean per seed). "
         f"On the bottle the error after the span of its completed trials is "
-        f"{span(bk[bk_done[bk_done].index], scale=1e3)} mm against {span(carried, scale=1e3)} mm for the full "
-        f"method (median over all seeds {median(bk, scale=1e3)} mm against {median(after(df, 'bottle', 'full'), scale=1e3)} "
+        f"{span(bk[bk_done[bk_done].index], scale=1e3)} mm against {span(carried, scale=1e3)} mm for the "
+        f"full "
+        f"method (median over all seeds {median(bk, scale=1e3)} mm against "
+        f"{median(after(df, 'bottle', 'full'), scale=1e3)} "
         f"and design 5's {median(rel, scale=1e3)}), and it finishes {clean(df, 'bottle', 'release_backoff')} "
         f"cleanly ({who(df, 'bottle', 'release_backoff')}); seeds {seeds(fallen.index[fallen])} are let go "
-        f"{' and '.join(f'{1e3 * bk[s]:.0f}' for s in fallen.index[fallen])} mm off but are not settled (they "
-        "fall over: the bottle's tilted set-down during the span, which no release fixes; the tilt was measured "
+        f"{' and '.join(f'{1e3 * bk[s]:.0f}' for s in fallen.index[fallen])} mm off but are not settled "
+        f"(they "
+        "fall over: the bottle's tilted set-down during the span, which no release fixes; the tilt was "
+        "measured "
         "on time series that were not kept).",
-        "- **On the bottle, design 5 (`variant=release`) lets go too.** The full method carries the bottle off "
+        "- **On the bottle, design 5 (`variant=release`) lets go too.** The full method carries the bottle "
+        "off "
         f"after the span in all {len(carried)} of its completed trials ({span(carried, '{:.1f}')} m); with "
-        f"design 5 the same trials end {', '.join(f'{1e3 * rel[s]:.0f}' for s in carried.index)} mm from where "
+        f"design 5 the same trials end {', '.join(f'{1e3 * rel[s]:.0f}' for s in carried.index)} mm from "
+        f"where "
         f"the reference leaves it and {clean(df, 'bottle', 'release')} finish cleanly "
-        f"({who(df, 'bottle', 'release')}); design 6 finishes {clean(df, 'bottle', 'release_scheduled')} cleanly. The reset alone (design 4) changes little on the "
+        f"({who(df, 'bottle', 'release')}); design 6 finishes {clean(df, 'bottle', 'release_scheduled')} "
+        f"cleanly. The reset alone (design 4) changes little on the "
         f"bottle ({median(after(df, 'bottle', 'release_reset'), scale=1e3)} mm after the span, median; "
         f"{clean(df, 'bottle', 'release_reset')} cleanly): the re-sampled fingers hold it again.",
         f"- **On the apple designs 4-6 do not beat the full method** ({clean(df, 'apple', 'full')} cleanly): "
@@ -184,7 +183,8 @@ def paper_findings(df: pd.DataFrame) -> str:
         + ". Opening to the reference's first pose is not open: that approach pre-shape encloses the apple "
         "(which links stay on it was read from time series that were not kept). Opening flat and backing off "
         "(design 7) is what it takes.",
-        f"- Seeds {seeds(pre)} of the bottle fail before the release (the pour), identically under every variant.",
+        f"- Seeds {seeds(pre)} of the bottle fail before the release (the pour), identically under every "
+        f"variant.",
     ]
     return "\n".join(lines) + "\n"
 
@@ -195,16 +195,21 @@ def lite_findings(df: pd.DataFrame) -> str:
     bk_clean = _flag(df, "doorknob", "release_backoff", "finished_cleanly")
     return (
         f"On the doorknob design 6 leaves the knob and door where the reference leaves them in every seed "
-        f"(after-span error {span(sch, scale=1e3)} x 1e-3 against {span(full, scale=1e3)} for the full method; "
+        f"(after-span error {span(sch, scale=1e3)} x 1e-3 against {span(full, scale=1e3)} for the full "
+        f"method; "
         f"at the end {median(fsch, scale=1e3)} against {median(ffull, scale=1e3)}, medians) and finishes "
-        f"{clean(df, 'doorknob', 'release_scheduled')} cleanly ({who(df, 'doorknob', 'release_scheduled')}) against {clean(df, 'doorknob', 'full')}; in the "
+        f"{clean(df, 'doorknob', 'release_scheduled')} cleanly "
+        f"({who(df, 'doorknob', 'release_scheduled')}) against {clean(df, 'doorknob', 'full')}; in the "
         "others the hand is still on the knob at the end (read from time series that were not kept).\n\n"
-        f"**Design 7 does not carry over to the doorknob.** It finishes {clean(df, 'doorknob', 'release_backoff')} "
+        f"**Design 7 does not carry over to the doorknob.** It finishes "
+        f"{clean(df, 'doorknob', 'release_backoff')} "
         f"cleanly, but in the other seeds the back-off drags the door: the articulation error at the end is "
         f"{span(fbk[bk_clean.index[~bk_clean]], scale=1e3)} x 1e-3 against design 6's "
         f"{span(fsch[bk_clean.index[~bk_clean]], scale=1e3)} on the same seeds (and the full method's "
-        f"{median(ffull, scale=1e3)}, median). The back-off direction is taken from the reference's poses, not "
-        "from where the hand is, and an articulated object follows a finger that a free object would roll off. "
+        f"{median(ffull, scale=1e3)}, median). The back-off direction is taken from the reference's poses, "
+        f"not "
+        "from where the hand is, and an articulated object follows a finger that a free object would roll "
+        "off. "
         "So on the doorknob design 6 (`variant=release_scheduled`) is the better release of these two.\n"
     )
 
@@ -220,16 +225,22 @@ def flat_findings(df: pd.DataFrame) -> str:
         f"doorknob.** Design 8 finishes the apple {clean(df, 'apple', 'release_flat')} cleanly (design 7: "
         f"{clean(df, 'apple', 'release_backoff')}; the full method {clean(df, 'apple', 'full')}), the bottle "
         f"{clean(df, 'bottle', 'release_flat')} (design 7 {clean(df, 'bottle', 'release_backoff')}, the full "
-        f"method {clean(df, 'bottle', 'full')}; design 8's clean ones are {who(df, 'bottle', 'release_flat')}; seed{'s' if left.sum() > 1 else ''} {seeds(left.index[left])} "
+        f"method {clean(df, 'bottle', 'full')}; design 8's clean ones are "
+        f"{who(df, 'bottle', 'release_flat')}; seed{'s' if left.sum() > 1 else ''} {seeds(left.index[left])} "
         f"let go {', '.join(f'{1e3 * fl[s]:.0f}' for s in left.index[left])} mm off but not settled; seeds "
-        f"{seeds(done.index[~done])} fail at the pour) and the doorknob {clean(df, 'doorknob', 'release_flat')} "
+        f"{seeds(done.index[~done])} fail at the pour) and the doorknob "
+        f"{clean(df, 'doorknob', 'release_flat')} "
         f"with the knob left where the reference leaves it (articulation error at the end "
-        f"{span(final(df, 'doorknob', 'release_flat'), scale=1e3)} x 1e-3), where design 7's back-off dragged "
+        f"{span(final(df, 'doorknob', 'release_flat'), scale=1e3)} x 1e-3), where design 7's back-off "
+        f"dragged "
         f"it (seeds not finished cleanly: {seeds(door.index[~door])}). **So `variant=release_flat` is the "
-        "release to use**: the walked-in grip dropped at the last contact, the fingers opened flat within 1 s, "
-        "the wrist waiting 1.5 s before it follows the reference's retreat, no sampling after the last contact. "
+        "release to use**: the walked-in grip dropped at the last contact, the fingers opened flat within "
+        "1 s, "
+        "the wrist waiting 1.5 s before it follows the reference's retreat, no sampling after the last "
+        "contact. "
         "What is left is not the release: the bottle's tilted set-down during the span, and on the doorknob, "
-        "whose reference lets go shortly before the trial ends, a hand still on the knob when the trial ends. "
+        "whose reference lets go shortly before the trial ends, a hand still on the knob when the trial "
+        "ends. "
         "The full method stays the default, as the paper's.\n"
     )
 
@@ -281,8 +292,7 @@ def report(study) -> str:
     )
     every = pd.concat([paper, lite, flat]).drop_duplicates("record_path")
     return (
-        INTRO
-        + f"\n{study.provenance(every)}\n\n"
+        INTRO + f"\n{study.provenance(every)}\n\n"
         "## Designs 4-7 on the paper apple and bottle\n\n"
         f"{image}\n\n"
         + release.markdown(release.release_table(paper))
