@@ -225,3 +225,214 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+# --- the study's tables (studies/fig3_paper, studies/fig3_lite): labelled statistics, completion tested ---
+
+#: The seed of the bootstrap's generator: a report re-made from the same records gives the same intervals.
+BOOTSTRAP_SEED = 20261126
+#: Resamples of each bootstrap interval.
+BOOTSTRAP_RESAMPLES = 4000
+#: Significance level of the tests' readings.
+ALPHA = 0.05
+
+
+def prepare(df: pd.DataFrame) -> pd.DataFrame:
+    """Records as :func:`load` tables them, from a table that already has a ``fidelity`` column (e.g.
+    :meth:`analysis.study.Study.records`): the fidelity as the ``condition``, the ``paper_`` prefix
+    dropped, and a trial run under a ``challenge`` (``conf/challenge``) named ``task [challenge]``."""
+    df = df.copy()
+    df["condition"] = df["fidelity"]
+    df["task"] = df["task"].astype(str).str.removeprefix("paper_")
+    if "challenge" in df:
+        hard = df["challenge"].notna() & (df["challenge"].astype(str) != "")
+        df.loc[hard, "task"] = df.loc[hard, "task"] + " [" + df.loc[hard, "challenge"].astype(str) + "]"
+    return df
+
+
+def cell_table(df: pd.DataFrame) -> str:
+    """Per task, variant and fidelity, with each header naming its statistic: completed and finished
+    cleanly (counts), median TTF % (IQR), the mean over trials of the object's position error over the
+    contact span, after it and over the whole trial (mm), and the records that do not count (errors)."""
+    from analysis.summarize import Stat, markdown, summarize
+
+    ok = ok_trials
+    stats = [
+        Stat("completed", "count", name="completed", where=ok),
+        Stat("status", "n", label="diverged", where=lambda g: ok(g)[ok(g)["status"] == "diverged"]),
+        Stat("finished_cleanly", "count", name="finished cleanly", where=ok),
+        Stat("ttf", "median_iqr", name="TTF %", scale=100, where=ok),
+        *[
+            Stat(col, "mean", name=col, scale=1000, digits=0, where=ok)
+            for col in (
+                "object_position_error_span_mean",
+                "object_position_error_after_mean",
+                "object_position_error_mean",
+            )
+        ],
+        Stat("status", "n", label="errors", where=lambda g: g.drop(ok(g).index)),
+    ]
+    t = summarize(
+        df,
+        by=["task", "variant", "fidelity"],
+        stats=stats,
+        order={"task": TASK_ORDER, "variant": VARIANT_ORDER, "fidelity": FIDELITY_ORDER},
+    )
+    t["completed"] = [
+        f"{c} ({d} diverged)" if d else c for c, d in zip(t["completed"], t["diverged"], strict=True)
+    ]
+    errs = [s for s in stats if s.column.startswith("object_")]
+    t["mean object error in span / after span / whole trial (mm)"] = [
+        " / ".join(_mm(v / 1000) for v in vals) for vals in zip(*(t[s.header] for s in errs), strict=True)
+    ]
+    stats_by = t.attrs["stats"]
+    t = t[
+        [
+            "task",
+            "variant",
+            "fidelity",
+            "completed",
+            "finished cleanly",
+            "median (IQR) TTF %",
+            "mean object error in span / after span / whole trial (mm)",
+            "errors",
+        ]
+    ]
+    t.attrs["stats"] = {k: v for k, v in stats_by.items() if k in t.columns and k != "completed"}
+    return markdown(t, align="lll" + "rrrrr")
+
+
+def ttf_tests(df: pd.DataFrame, rng: np.random.Generator, alpha: float = ALPHA) -> pd.DataFrame:
+    """:func:`analysis.report.significance_tests` of TTF per fidelity (Holm within each), with percentile
+    bootstrap 95 % intervals over trials of P(full > ablation) and of the Hodges–Lehmann shift
+    (``ps_lo``, ``ps_hi``, ``hl_lo``, ``hl_hi``), drawn from ``rng`` in the table's order, and
+    ``testable`` (the smallest attainable p is below ``alpha``)."""
+    from analysis.inference import bootstrap_effects
+
+    tests = _in_order(significance_tests(df, family="condition", same_condition=True), "condition")
+    good = ok_trials(df)
+    cis = []
+    for r in tests.itertuples(index=False):
+        a, b = (
+            good.loc[
+                (good["task"] == r.task) & (good["variant"] == v) & (good["fidelity"] == r.condition), "ttf"
+            ].to_numpy(float)
+            for v in (r.reference, r.variant)
+        )
+        (p_lo, p_hi), (s_lo, s_hi) = bootstrap_effects(a, b, rng, BOOTSTRAP_RESAMPLES)
+        cis.append((p_lo, p_hi, s_lo, s_hi))
+    tests[["ps_lo", "ps_hi", "hl_lo", "hl_hi"]] = pd.DataFrame(cis, index=tests.index, dtype=float)
+    tests["testable"] = tests["p_min"] < alpha
+    return tests
+
+
+def completion_tests(df: pd.DataFrame, reference: str = "full", alpha: float = ALPHA) -> pd.DataFrame:
+    """Completion of ``reference`` against each other variant, per task and fidelity: the counts, the
+    difference in completion rate with Newcombe's 95 % interval, Barnard's exact two-sided p, its
+    smallest attainable p at these n, and Holm's adjustment within each fidelity."""
+    from analysis.inference import completion_test, newcombe
+    from analysis.report import holm
+
+    good = ok_trials(df)
+    done = good[good["completed"].notna()]
+    rows = []
+    for fid in ordered(df["fidelity"], FIDELITY_ORDER):
+        for task in ordered(df["task"], TASK_ORDER):
+            cell = done[(done["task"] == task) & (done["fidelity"] == fid)]
+            if reference not in set(cell["variant"]):
+                continue
+            ref = cell.loc[cell["variant"] == reference, "completed"].astype(bool)
+            for variant in ordered(cell["variant"], VARIANT_ORDER):
+                if variant == reference:
+                    continue
+                other = cell.loc[cell["variant"] == variant, "completed"].astype(bool)
+                k1, n1, k2, n2 = int(ref.sum()), len(ref), int(other.sum()), len(other)
+                p, p_min = completion_test(k1, n1, k2, n2)
+                d, lo, hi = newcombe(k1, n1, k2, n2)
+                rows.append(
+                    dict(
+                        task=task,
+                        fidelity=fid,
+                        variant=variant,
+                        k_ref=k1,
+                        n_ref=n1,
+                        k_other=k2,
+                        n_other=n2,
+                        delta=d,
+                        delta_lo=lo,
+                        delta_hi=hi,
+                        p=p,
+                        p_min=p_min,
+                    )
+                )
+    cols = [
+        "task",
+        "fidelity",
+        "variant",
+        "k_ref",
+        "n_ref",
+        "k_other",
+        "n_other",
+        "delta",
+        "delta_lo",
+        "delta_hi",
+        "p",
+        "p_min",
+    ]
+    out = pd.DataFrame(rows, columns=cols)
+    out["p_holm"] = (
+        out.groupby("fidelity", sort=False)["p"].transform(lambda p: holm(p.to_numpy())) if len(out) else []
+    )
+    out["testable"] = out["p_min"] < alpha
+    return _in_order(out.rename(columns={"fidelity": "condition"}), "condition").rename(
+        columns={"condition": "fidelity"}
+    )
+
+
+def _pv(p: float, testable: bool = True) -> str:
+    if not np.isfinite(p):
+        return "—"
+    return f"{p:.3g}" if testable else f"{p:.3g}*"
+
+
+def ttf_tests_markdown(tests: pd.DataFrame) -> str:
+    """The TTF tests as a pipe table (medians labelled; intervals 95 % bootstrap; ``*``: too few to test)."""
+    lines = [
+        "| task | fidelity | ablation | n full / ablation | median TTF % full / ablation | U | p | Holm p "
+        "| smallest attainable p | P(full > ablation) [95 % CI] | HL shift, TTF % [95 % CI] | test |",
+        "|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|---|",
+    ]
+    for r in tests.itertuples(index=False):
+        if not (r.n_ref and r.n_other):
+            lines.append(
+                f"| {r.task} | {r.condition} | {r.variant} | {r.n_ref} / {r.n_other} | — | — | — | — "
+                "| — | — | — | not tested |"
+            )
+            continue
+        t = r.testable
+        lines.append(
+            f"| {r.task} | {r.condition} | {r.variant} | {r.n_ref} / {r.n_other} | "
+            f"{100 * r.median_ref:.1f} / {100 * r.median_other:.1f} | {r.U:.1f} | {_pv(r.p, t)} | "
+            f"{_pv(r.p_holm, t)} | {_pv(r.p_min)} | "
+            f"{r.prob_superiority:.2f} [{r.ps_lo:.2f}, {r.ps_hi:.2f}] | "
+            f"{100 * r.hl_shift:+.1f} [{100 * r.hl_lo:+.1f}, {100 * r.hl_hi:+.1f}] | "
+            f"{r.method if t else 'too few to test'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def completion_tests_markdown(tests: pd.DataFrame) -> str:
+    """The completion tests as a pipe table (``*``: too few to test)."""
+    lines = [
+        "| task | fidelity | ablation | completed full / ablation | difference in completion rate, "
+        "points [95 % CI] | Barnard p | Holm p | smallest attainable p |",
+        "|---|---|---|--:|--:|--:|--:|--:|",
+    ]
+    for r in tests.itertuples(index=False):
+        t = r.testable
+        lines.append(
+            f"| {r.task} | {r.fidelity} | {r.variant} | {r.k_ref}/{r.n_ref} / {r.k_other}/{r.n_other} | "
+            f"{100 * r.delta:+.0f} [{100 * r.delta_lo:+.0f}, {100 * r.delta_hi:+.0f}] | {_pv(r.p, t)} | "
+            f"{_pv(r.p_holm, t)} | {_pv(r.p_min)} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -15,19 +15,20 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.stats import PermutationMethod, mannwhitneyu
+from scipy.stats import mannwhitneyu
 
 from analysis._cli import sweep_parser
 from analysis.aggregate import (
     TASK_ORDER,
     VARIANT_ORDER,
     conditions,
-    groups,
     ok_trials,
     ordered,
     run_records,
     write_table,
 )
+from analysis.inference import EXACT_PERMUTATIONS, permutation_u, smallest_u_p  # noqa: F401 (re-exported)
+from analysis.summarize import Stat, summarize
 
 REFERENCE_VARIANT = "full"
 #: The position errors of :func:`summary_table`: the tracking error (over the contact span), after the
@@ -74,49 +75,30 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
         ``object_position_error_span_mean`` over the contact span, ``object_position_error_after_mean``
         after it and ``object_position_error_mean`` over the whole trial.
     """
-    good = ok_trials(df)
-    rows = []
-    for task, variant, condition in groups(df):
-        sel = _in(df, task, variant, condition)
-        g = good[_in(good, task, variant, condition)]
-        ttf = g["ttf"].to_numpy(float)
-        completed = g["completed"].dropna()
-        clean = g["finished_cleanly"].dropna() if "finished_cleanly" in g else pd.Series(dtype=float)
-        rows.append(
-            {
-                "task": task,
-                "variant": variant,
-                "condition": condition,
-                "trials": int(sel.sum()),
-                "n": len(g),
-                "errors": int(sel.sum()) - len(g),
-                "diverged": int((g["status"] == "diverged").sum()),
-                "completion_rate": float(completed.astype(float).mean()) if len(completed) else math.nan,
-                "finished_cleanly_rate": float(clean.astype(float).mean()) if len(clean) else math.nan,
-                "ttf_median": float(np.median(ttf)) if len(ttf) else math.nan,
-                "ttf_q25": float(np.percentile(ttf, 25)) if len(ttf) else math.nan,
-                "ttf_q75": float(np.percentile(ttf, 75)) if len(ttf) else math.nan,
-                **{col: _mean(g[col]) if col in g else math.nan for col in ERROR_COLUMNS},
-            }
-        )
-    return pd.DataFrame(
-        rows,
-        columns=[
-            "task",
-            "variant",
-            "condition",
-            "trials",
-            "n",
-            "errors",
-            "diverged",
-            "completion_rate",
-            "finished_cleanly_rate",
-            "ttf_median",
-            "ttf_q25",
-            "ttf_q75",
-            *ERROR_COLUMNS,
-        ],
+    ok = ok_trials
+    stats = {
+        "trials": Stat("task", "n"),
+        "n": Stat("task", "n", where=ok),
+        "errors": Stat("task", "n", where=lambda g: g.drop(ok_trials(g).index)),
+        "diverged": Stat("task", "n", where=lambda g: ok(g)[ok(g)["status"] == "diverged"]),
+        "completion_rate": Stat("completed", "rate", where=ok),
+        "finished_cleanly_rate": Stat("finished_cleanly", "rate", where=ok),
+        "ttf_median": Stat("ttf", "median", where=ok),
+        "ttf_q25": Stat("ttf", "q25", where=ok),
+        "ttf_q75": Stat("ttf", "q75", where=ok),
+        **{col: Stat(col, "mean", where=ok) for col in ERROR_COLUMNS},
+    }
+    df = df.assign(condition=df["condition"].fillna("").astype(str))
+    if "finished_cleanly" not in df:
+        df = df.assign(finished_cleanly=pd.NA)
+    table = summarize(
+        df,
+        by=["task", "variant", "condition"],
+        stats=stats,
+        order={"task": TASK_ORDER, "variant": VARIANT_ORDER},
     )
+    table.attrs.clear()
+    return table
 
 
 def holm(p: Sequence[float]) -> np.ndarray:
@@ -162,7 +144,8 @@ def significance_tests(
         One row per (task, other variant, pair of conditions) with columns ``task``, ``reference``,
         ``reference_condition``, ``variant``, ``condition``, ``n_ref``, ``n_other``, ``median_ref``,
         ``median_other``, ``U``, ``p``, ``p_holm``, ``prob_superiority``, ``hl_shift`` (the
-        Hodges–Lehmann shift, :func:`hodges_lehmann`), ``method`` (:func:`mann_whitney`), ``reading``.
+        Hodges–Lehmann shift, :func:`hodges_lehmann`), ``method`` (:func:`mann_whitney`), ``reading``,
+        ``p_min`` (the smallest p the test could give on these pooled values, :func:`smallest_p`).
         Empty when no task has the reference variant.
     """
     good = ok_trials(df)
@@ -195,10 +178,11 @@ def significance_tests(
             "prob_superiority": math.nan,
             "hl_shift": math.nan,
             "method": "",
+            "p_min": math.nan,
         }
         if len(a) and len(b):
             u, p, method = mann_whitney(a, b)
-            row.update(U=u, p=p, method=method, hl_shift=hodges_lehmann(a, b))
+            row.update(U=u, p=p, method=method, hl_shift=hodges_lehmann(a, b), p_min=smallest_p(a, b))
             row["prob_superiority"] = row["U"] / (len(a) * len(b))
         rows.append(row)
     columns = [
@@ -218,6 +202,7 @@ def significance_tests(
         "hl_shift",
         "method",
         "reading",
+        "p_min",
     ]
     out = pd.DataFrame(rows, columns=columns)
     if family is None:
@@ -228,19 +213,15 @@ def significance_tests(
     return out
 
 
-#: Most arrangements of two samples with ties for which the exact permutation distribution of U is
-#: enumerated (6 vs 6: 924; 10 vs 10: 184,756); beyond, the tie-corrected normal approximation.
-EXACT_PERMUTATIONS = 200_000
-
-
 def mann_whitney(a: np.ndarray, b: np.ndarray) -> tuple[float, float, str]:
     """Two-sided Mann–Whitney U of ``a`` (n,) against ``b`` (m,), as exact as the samples allow.
 
     Without ties, the exact null distribution of U (``exact``). With ties (TTF = 1 for every trial that
     completes), the exact permutation distribution of U over all C(n + m, n) arrangements of the
-    pooled values (``exact permutation``) while there are at most :data:`EXACT_PERMUTATIONS` of them
-    (and each sample has two values or more), else the normal approximation with the tie correction
-    and continuity correction (``normal``).
+    pooled values (``exact permutation``, :func:`analysis.inference.permutation_u`; one trial a side
+    too) while there are at most :data:`analysis.inference.EXACT_PERMUTATIONS` of them, else the normal
+    approximation with the tie correction and continuity correction (``normal``), which small samples
+    never reach.
 
     Returns:
         U of ``a``, the p-value, and the method's name.
@@ -249,12 +230,21 @@ def mann_whitney(a: np.ndarray, b: np.ndarray) -> tuple[float, float, str]:
     if len(np.unique(pooled)) == len(pooled):
         res = mannwhitneyu(a, b, alternative="two-sided", method="exact")
         return float(res.statistic), float(res.pvalue), "exact"
-    if min(len(a), len(b)) >= 2 and math.comb(len(pooled), len(a)) <= EXACT_PERMUTATIONS:
-        method = PermutationMethod(n_resamples=np.inf)
-        res = mannwhitneyu(a, b, alternative="two-sided", method=method)
-        return float(res.statistic), float(res.pvalue), "exact permutation"
+    exact = permutation_u(a, b)
+    if exact is not None:
+        return exact[0], exact[1], "exact permutation"
     res = mannwhitneyu(a, b, alternative="two-sided", method="asymptotic")
     return float(res.statistic), float(res.pvalue), "normal"
+
+
+def smallest_p(a: np.ndarray, b: np.ndarray) -> float:
+    """The smallest p :func:`mann_whitney` could give for any arrangement of these pooled values (what
+    the test can detect at this n; 2 / C(n + m, n) without ties); NaN where the test is not exact."""
+    pooled = np.concatenate([a, b])
+    if len(np.unique(pooled)) == len(pooled):
+        return smallest_u_p(len(a), len(b))
+    exact = permutation_u(a, b)
+    return exact[2] if exact is not None else math.nan
 
 
 def hodges_lehmann(a: np.ndarray, b: np.ndarray) -> float:

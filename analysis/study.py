@@ -181,6 +181,25 @@ class Study:
         return list(rows(self)) if rows is not None else []
 
 
+def planned(experiment: str, root: Path = REPO / "conf" / "experiment") -> int | None:
+    """How many jobs ``experiment``'s sweep runs: the product of the sizes of its sweeper's parameters
+    (``a,b,c`` counts 3, ``range(n)`` n); ``None`` where it has no such config."""
+    import re
+
+    from omegaconf import OmegaConf
+
+    path = Path(root) / f"{experiment}.yaml"
+    if not path.is_file():
+        return None
+    params = OmegaConf.select(OmegaConf.load(path), "hydra.sweeper.params", default=None) or {}
+    total = 1
+    for value in params.values():
+        text = str(value)
+        m = re.fullmatch(r"range\((\d+)(?:,\s*(\d+))?\)", text.strip())
+        total *= (int(m[2]) - int(m[1]) if m[2] else int(m[1])) if m else len(text.split(","))
+    return total
+
+
 def _machines(df: pd.DataFrame) -> str:
     """The machines the records ran on: CPU model with logical CPUs (and the host where recorded)."""
     cols = [c for c in ("host", "cpu", "logical_cpus") if c in df]

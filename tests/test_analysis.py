@@ -415,10 +415,10 @@ def test_a_records_variant_label_names_its_variant(tmp_path):
 
 
 def test_mann_whitney_is_exact_with_and_without_ties_and_six_seeds_can_pass_holm_over_eight():
-    """No ties: scipy's exact U distribution; ties (every completed trial has TTF 1): the exact
-    permutation distribution, which for fully separated 6 vs 6 samples is 2 / C(12, 6) either way; 6
-    seeds per cell can then pass Holm over 8 tests at 0.05 and 5 cannot. The Hodges-Lehmann shift is
-    the median pairwise difference."""
+    """No ties: scipy's exact U distribution; ties (every completed trial has TTF 1), one trial a side
+    included: the exact permutation distribution, which for fully separated 6 vs 6 samples is
+    2 / C(12, 6) either way; 6 seeds per cell can then pass Holm over 8 tests at 0.05 and 5 cannot. The
+    Hodges-Lehmann shift is the median pairwise difference."""
     from math import comb
 
     from analysis.report import hodges_lehmann, mann_whitney
@@ -432,6 +432,9 @@ def test_mann_whitney_is_exact_with_and_without_ties_and_six_seeds_can_pass_holm
     _, p_same, _ = mann_whitney(np.ones(6), np.ones(6))
     assert p_same == pytest.approx(1.0)
     tied = np.append(low, 1.0)
-    assert mann_whitney(np.ones(1), tied)[2] == "normal"  # ties and one value: no permutation test
+    # ties and one trial a side: still the exact permutation distribution (8 arrangements, the observed
+    # U = 6.5 and one other as large: p = 2 x 2/8), never the normal approximation on small samples
+    assert mann_whitney(np.ones(1), tied)[1:] == (pytest.approx(0.5), "exact permutation")
+    assert mann_whitney(np.ones(6), np.array([0.152]))[1:] == (pytest.approx(2 / 7), "exact permutation")
     assert hodges_lehmann(np.ones(6), low) == pytest.approx(np.median(1 - low))
     assert hodges_lehmann(low, low) == pytest.approx(0.0)

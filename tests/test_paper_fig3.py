@@ -83,7 +83,7 @@ def test_tables_keep_the_fidelities_apart(sweep: Path, tmp_path: Path) -> None:
     assert "| doorknob | full | paper |" in first  # paper task order, prefix dropped
 
 
-KEPT = REPO / "results" / "fig3_paper"  # the kept records of experiment=fig3_paper, where committed
+KEPT = REPO / "studies" / "fig3_paper" / "records"  # the kept records of experiment=fig3_paper
 
 
 @pytest.mark.parametrize(
