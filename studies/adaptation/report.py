@@ -7,6 +7,7 @@ from pathlib import Path
 
 from analysis import robustness
 
+QUESTION = "How far can the plant differ from the planner's model before each method stops completing a task?"
 TITLE = "Adaptation under mismatch"
 EXPERIMENTS = [
     "python launch.py experiment=robustness_lite hydra.sweep.dir=studies/adaptation/records/robustness_lite",

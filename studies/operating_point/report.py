@@ -11,6 +11,7 @@ from analysis import operating_point as op
 from analysis.aggregate import select
 from analysis.prose import median, of, seeds, span
 
+QUESTION = "Which planner size completes the paper's tasks on their real data, and at what compute?"
 TITLE = "The paper's operating point on the real data"
 EXPERIMENTS = [
     "python launch.py experiment=operating_point hydra.sweep.dir=studies/operating_point/records",

@@ -13,6 +13,7 @@ from analysis.aggregate import select
 from analysis.operating_point import readings
 from analysis.prose import frac, median, of, seeds, span
 
+QUESTION = "How should the hand let go at the end of a task, to leave the object where the reference does?"
 TITLE = "Letting go: the release designs"
 EXPERIMENTS = [
     "python launch.py experiment=release_reset hydra.sweep.dir=studies/release/records/release_reset",

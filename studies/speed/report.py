@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+QUESTION = "Where does a trial's time go, and what will a sweep cost before it is launched?"
 TITLE = "Speed: where a trial's time goes, and what a sweep will cost"
 EXPERIMENTS = [
     "python launch.py job=benchmark task=<task> hydra.run.dir=outputs/benchmarks/quiet/<task>"

@@ -12,6 +12,7 @@ from analysis import operating_point as op
 from analysis.prose import median, of, seeds, seeds_n, span
 from analysis.summarize import Stat, markdown, summarize
 
+QUESTION = "Why does the paper's method never lift the real stapler, and what does?"
 TITLE = "Why the paper's stapler fails"
 EXPERIMENTS = [
     "python launch.py experiment=stapler_wrist preset=paper_32samples "
