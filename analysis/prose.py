@@ -79,3 +79,19 @@ def seeds_n(values: Iterable) -> str:
     """``seed 2`` or ``seeds 3-5``: :func:`seeds` with its noun."""
     s = {int(v) for v in values}
     return f"seed{'s' if len(s) != 1 else ''} {seeds(s)}"
+
+
+def as_recorded(df):
+    """``df`` (``Study.records()``) with each variant under the label its records carry: the project's label
+    map (``contactmpc.labels.VARIANT_LABELS``, old name -> new), where it exists, undone for the names it
+    maps one to one, so that a report written against the records' labels reads the same after a rename."""
+    try:
+        from contactmpc import labels  # type: ignore[attr-defined]
+    except ImportError:
+        return df
+    mapping = getattr(labels, "VARIANT_LABELS", None)
+    if not isinstance(mapping, dict) or "variant" not in df:
+        return df
+    news = list(mapping.values())
+    back = {new: old for old, new in mapping.items() if news.count(new) == 1}
+    return df.assign(variant=df["variant"].map(lambda v: back.get(v, v)))
