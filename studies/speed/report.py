@@ -28,7 +28,7 @@ def report(study) -> str:
         "`outputs/`, which is not in git. The wall times and the two-thread speed-up are only meaningful on "
         "a quiet machine, so they are not re-made here on a shared one. Re-make with: `python launch.py "
         "job=benchmark task=<task> hydra.run.dir=outputs/benchmarks/quiet/<task>` for each of the eight "
-        "tasks (about a CPU-minute each, nothing else running), then `python -m analysis.benchmarks "
+        "tasks (with nothing else running), then `python -m analysis.benchmarks "
         "outputs/benchmarks/quiet` (and `--against outputs/benchmarks/loaded` for a loaded run); the budget "
         "check with `python -m analysis.budget experiment=robustness_lite --benchmarks "
         "outputs/benchmarks/quiet --measured outputs/sweeps/robustness_lite`. The section as it was "

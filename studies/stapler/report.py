@@ -204,7 +204,8 @@ def report(study) -> str:
     return (
         "With the paper's method (the wrist following the reference) the real stapler "
         "(`task=paper_stapler`) is "
-        "never lifted. Pinched at one end by a few fingertips, the long, light stapler pivots on the table "
+        "never lifted. As the timeline of a trial whose record was not kept shows (below): pinched at one "
+        "end by a few fingertips, the long, light stapler pivots on the table "
         "instead of being lifted, slips out, and the hand rises along the reference with nothing in it; the "
         "reference's grasp passes through the thin stapler, so a physical hand that follows it can only "
         "pinch "
