@@ -41,6 +41,7 @@ def trials(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     df = df[df["task"] == "stapler"].copy()
     ms = {k: [m.get(k, False) for m in df["milestones"]] for k in ("lifted", "turned")}
     df["lifted"], df["turned"] = ms["lifted"], ms["turned"]
+    df["_ttf1"] = df["ttf"] >= 1.0
     df["point"] = [
         f"{s} x {h:g} s, {1e3 * i:.0f} ms"
         for s, h, i in zip(df["samples"], df["horizon"], df["interval"], strict=True)
@@ -82,6 +83,7 @@ def per_seed(g: pd.DataFrame) -> str:
 
 STATS = [
     Stat("completed", "count", name="completed"),
+    Stat("_ttf1", "count", name="TTF 1.00"),
     Stat("finished_cleanly", "count", name="finished cleanly"),
     Stat("lifted", "count", name="lifted"),
     Stat("compute", "median", name="CPU-s", digits=0),
