@@ -10,7 +10,8 @@ first use of a name, so ``import analysis`` stays cheap in a notebook::
     print(markdown_report(df))
 
 Command lines: ``python -m analysis SWEEP_DIR... --out-dir DIR`` (table, figure and report),
-``python -m analysis.aggregate``, ``python -m analysis.figures``, ``python -m analysis.report``.
+``python -m analysis.aggregate``, ``python -m analysis.figures``, ``python -m analysis.report``; the
+studies' reports (``studies/<name>/README.md``): ``python -m analysis.study``.
 """
 
 from __future__ import annotations
@@ -30,6 +31,9 @@ _EXPORTS = {
     "markdown_report": "report",
     "write_report": "report",
     "write_all": "report",
+    "Stat": "summarize",
+    "summarize": "summarize",
+    "Study": "study",
 }
 
 __all__ = sorted(_EXPORTS)

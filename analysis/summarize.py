@@ -40,6 +40,7 @@ HOW: dict[str, str] = {
     "range": "range",  # "min–max"
     "median_iqr": "median (IQR)",  # "median (q25–q75)"
     "median_range": "median (range)",  # "median (min–max)"
+    "values": "",  # every value, in the records' order: "1.00, 0.57, 0.01"
 }
 
 
@@ -93,6 +94,8 @@ class Stat:
                 return f"{int(known.sum())}/{len(known)}"
             return float(known.mean()) if len(known) else math.nan
         x = pd.to_numeric(values, errors="coerce").dropna().to_numpy(float) * self.scale
+        if self.how == "values":
+            return ", ".join(f"{v:.{self.digits}f}" for v in x) if len(x) else None
         if not len(x):
             return math.nan if self.how not in ("iqr", "range", "median_iqr", "median_range") else None
         if self.how == "sum":

@@ -66,6 +66,7 @@ def test_summarize_groups_in_the_given_order_and_labels_the_statistic() -> None:
             Stat("ttf", "mean", name="TTF %", scale=100),
             Stat("ttf", "median_iqr", name="TTF %", scale=100),
             Stat("ttf", "n"),
+            Stat("ttf", "values", name="TTF", digits=2),
         ],
         order={"task": ["b"]},
     )
@@ -77,6 +78,7 @@ def test_summarize_groups_in_the_given_order_and_labels_the_statistic() -> None:
         "mean TTF %",
         "median (IQR) TTF %",
         "ttf",
+        "TTF",
     ]
     assert list(zip(table["task"], table["variant"], strict=True)) == [("b", "x"), ("a", "x"), ("a", "y")]
     ax = table.iloc[1]
@@ -87,7 +89,7 @@ def test_summarize_groups_in_the_given_order_and_labels_the_statistic() -> None:
     assert bx["completed"] == "1/2" and bx["median TTF %"] == pytest.approx(30.0)
     md = markdown(table).splitlines()
     assert md[0].startswith("| task | variant | completed | median TTF % | mean TTF %")
-    assert md[3] == "| a | x | 1/1 | 70.0 | 70.0 | 70.0 (55.0–85.0) | 2 |"
+    assert md[3] == "| a | x | 1/1 | 70.0 | 70.0 | 70.0 (55.0–85.0) | 2 | 1.00, 0.40 |"
 
 
 def test_a_stat_where_filters_and_an_empty_group_is_blank() -> None:
@@ -120,3 +122,18 @@ def test_provenance_warns_when_records_span_revisions(tmp_path) -> None:
     two = one.assign(git_revision=["a" * 40, "b" * 40])
     assert "**The records span 2 code revisions**" in s.provenance(two)
     assert s.records().empty and s.render().startswith("# t\n")
+
+
+def test_glance_keeps_the_best_row_per_task(tmp_path) -> None:
+    """9 of 10 beats 1 of 1 (the Wilson interval's lower bound), whichever study gives it."""
+    for name, done in (("a", "1/1"), ("b", "9/10")):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "report.py").write_text(
+            'TITLE = "t"\nEXPERIMENTS = []\ndef report(study):\n  return ""\n'
+            'def glance(study):\n  return [{"task": "apple", '
+            f'"configuration": "{name}", "completed": "{done}"}}]\n'
+        )
+    lines = glance_table(tmp_path).splitlines()
+    assert len(lines) == 3 and "| apple | b | 9/10 |" in lines[2] and "[b](studies/b/README.md)" in lines[2]
+    readme = f"x\n{study_mod.GLANCE_BEGIN}\nold\n{study_mod.GLANCE_END}\ny\n"
+    assert with_glance(readme, "T\n") == f"x\n{study_mod.GLANCE_BEGIN}\nT\n{study_mod.GLANCE_END}\ny\n"
