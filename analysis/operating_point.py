@@ -34,24 +34,46 @@ import pandas as pd
 
 from analysis._cli import fail, sweep_parser
 from analysis.aggregate import TASK_ORDER, ordered, select
-from analysis.paper_fig3 import FIDELITY_ORDER
+from analysis.paper_fig3 import FIDELITY_ORDER, fidelities, fidelity_of
 from analysis.paper_fig3 import load as fig3_load
+from analysis.summarize import Stat, summarize
 
 PAPER_POINT = (128, 2.5)  # samples, horizon (s)
 
 
 def load(*dirs: str | Path) -> pd.DataFrame:
-    """One row per trial record (:func:`analysis.paper_fig3.load`: variant, fidelity, the task without its
-    ``paper_`` prefix) with a planner config: task, variant, fidelity, samples, horizon, interval (s),
-    latency (s), seed, status, completed, finished cleanly (NaN where an older record lacks it), ttf,
-    errors, compute seconds, milestones reached (name -> bool)."""
+    """One row per trial record of ``dirs`` with a planner config (:func:`points`)."""
     for d in dirs:
         if not Path(d).is_dir():
             raise FileNotFoundError(f"no such sweep directory: {d}")
-    df = fig3_load(*dirs)
-    df = df[df["num_samples"].notna()].reset_index(drop=True)
+    try:
+        return points(fig3_load(*dirs))
+    except ValueError as err:
+        raise ValueError(f"{err} under {', '.join(map(str, dirs))}") from None
+
+
+def readings(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` (:func:`analysis.aggregate.load_records`) with the ``fidelity`` each record's config holds
+    (:func:`analysis.paper_fig3.fidelity_of`) as its ``condition`` and the ``paper_`` prefix dropped from
+    task names: what :func:`analysis.paper_fig3.load` makes of directories, made of a loaded table."""
+    df = df.copy()
+    if "fidelity" not in df:
+        known = fidelities()
+        df["fidelity"] = [fidelity_of(_config(p), known) for p in df["record_path"]]
+    df["condition"] = df["fidelity"]
+    df["task"] = df["task"].str.removeprefix("paper_")
+    return df
+
+
+def points(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per trial record (:func:`analysis.paper_fig3.load`, or :func:`readings` of a loaded table:
+    variant, fidelity, the task without its ``paper_`` prefix) with a planner config: task, variant,
+    fidelity, samples, horizon, interval (s), latency (s), seed, status, completed, finished cleanly (NaN
+    where an older record lacks it), ttf, errors, compute seconds, milestones reached (name -> bool)."""
+    df = readings(df)
+    df = df[df["num_samples"].notna()].reset_index(drop=True) if len(df) else df
     if df.empty:
-        raise ValueError(f"no trial records with a planner config under {', '.join(map(str, dirs))}")
+        raise ValueError("no trial records with a planner config")
     ok = df["status"] == "ok"
 
     def column(name: str) -> pd.Series:
@@ -85,11 +107,15 @@ def load(*dirs: str | Path) -> pd.DataFrame:
                 for c, ok_ in zip(clean, ok, strict=True)
             ],
             "ttf": column("ttf"),
+            "failure_time": column("failure_time") if "failure_time" in df else np.nan,
             "error_span": column("object_position_error_span_mean"),
             "error_after": column("object_position_error_after_mean"),
             "error_mean": column("object_position_error_mean"),
             "error_final": column("final_object_position_error"),
             "compute": cpu.fillna(pd.to_numeric(df["wall_seconds"], errors="coerce")),
+            "cpu": df["cpu"] if "cpu" in df else None,
+            "record_path": df["record_path"],
+            "git_revision": df["git_revision"] if "git_revision" in df else None,
             "milestones": [
                 {c[10:]: bool(v) for c, v in row.items() if isinstance(v, bool | np.bool_)}
                 for row in df[milestones].to_dict("records")
@@ -98,12 +124,17 @@ def load(*dirs: str | Path) -> pd.DataFrame:
     )
 
 
-def _planner(path: str) -> dict:
-    """The ``config.planner`` node of the record at ``path`` (``{}`` where it has none)."""
+def _config(path: str) -> dict:
+    """The ``config`` of the record at ``path`` (``{}`` where it has none)."""
     try:
-        return (json.loads(Path(path).read_text()).get("config") or {}).get("planner") or {}
+        return json.loads(Path(path).read_text()).get("config") or {}
     except (OSError, ValueError):
         return {}
+
+
+def _planner(path: str) -> dict:
+    """The ``config.planner`` node of the record at ``path`` (``{}`` where it has none)."""
+    return _config(path).get("planner") or {}
 
 
 def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: float = 0.01) -> float:
@@ -111,39 +142,53 @@ def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: 
     return samples * max(1, round(horizon / planner_dt)) / interval
 
 
+#: The map's keys: a point of one task, variant and reading.
+POINT_KEYS = ["task", "variant", "fidelity", "samples", "horizon", "interval", "latency"]
+#: Per point (:func:`summary`): column -> how it is reduced over the point's trials.
+POINT_STATS: dict[str, Stat] = {
+    "trials": Stat("seed", "n"),
+    "errors": Stat("_error", "sum"),
+    "completed": Stat("completed", "sum"),
+    "finished_cleanly": Stat("finished_cleanly", "sum"),  # NaN (unrecorded) counts 0
+    "cleanly_known": Stat("_cleanly_known", "sum"),
+    "ttf_median": Stat("ttf", "median"),
+    "error_span_mm": Stat("error_span", "median", scale=1e3),
+    "error_after_mm": Stat("error_after", "median", scale=1e3),
+    "error_mean_mm": Stat("error_mean", "median", scale=1e3),
+    "error_final_mm": Stat("error_final", "median", scale=1e3),
+    "compute_s": Stat("compute", "median"),
+}
+
+
 def summary(df: pd.DataFrame) -> pd.DataFrame:
-    """Per task, fidelity and point: trials, completed, finished cleanly, milestones, TTF, errors (medians
-    over the trials: in the span, after it, whole trial, final), compute."""
-    keys = ["task", "variant", "fidelity", "samples", "horizon", "interval", "latency"]
-    rows = []
-    for key, g in df.groupby(keys, sort=False):
-        reached: dict[str, int] = {}
-        for m in g["milestones"]:
-            for name, hit in m.items():
-                reached[name] = reached.get(name, 0) + int(hit)
-        row = dict(zip(keys, key, strict=True))
-        row.update(
-            trials=len(g),
-            errors=int((g["status"] != "ok").sum()),
-            completed=int(g["completed"].sum()),
-            finished_cleanly=int(g["finished_cleanly"].sum()),  # NaN (unrecorded) counts 0
-            cleanly_known=int(g["finished_cleanly"].notna().sum()),
-            milestones=", ".join(f"{k} {v}" for k, v in reached.items()),
-            ttf_median=float(pd.to_numeric(g["ttf"], errors="coerce").median()),
-            error_span_mm=1e3 * float(pd.to_numeric(g["error_span"], errors="coerce").median()),
-            error_after_mm=1e3 * float(pd.to_numeric(g["error_after"], errors="coerce").median()),
-            error_mean_mm=1e3 * float(pd.to_numeric(g["error_mean"], errors="coerce").median()),
-            error_final_mm=1e3 * float(pd.to_numeric(g["error_final"], errors="coerce").median()),
-            compute_s=float(pd.to_numeric(g["compute"], errors="coerce").median()),
-            cost=steps_per_second(int(key[3]), float(key[4]), float(key[5])),
-        )
-        rows.append(row)
-    out = pd.DataFrame(rows)
+    """Per task, variant, fidelity and point (:data:`POINT_STATS` on :func:`analysis.summarize.summarize`):
+    trials, completed, finished cleanly, milestones, TTF, errors (medians over the trials: in the span,
+    after it, whole trial, final), compute (median); sorted by task, variant, fidelity and cost."""
+    df = df.assign(_error=df["status"] != "ok", _cleanly_known=df["finished_cleanly"].notna())
+    out = summarize(df, by=POINT_KEYS, stats=POINT_STATS)
+    for c in ("errors", "completed", "finished_cleanly", "cleanly_known"):
+        out[c] = out[c].fillna(0).astype(int)
+    keys = df[POINT_KEYS].astype(object)
+    out["milestones"] = [
+        _reached(df[(keys == pd.Series(dict(zip(POINT_KEYS, row, strict=True)))).all(axis=1)]["milestones"])
+        for row in out[POINT_KEYS].itertuples(index=False)
+    ]
+    out["cost"] = [steps_per_second(int(s), float(h), float(i)) for s, h, i in
+                   zip(out["samples"], out["horizon"], out["interval"], strict=True)]  # fmt: skip
     task_rank = {t: i for i, t in enumerate(ordered(out["task"], TASK_ORDER))}
     fid_rank = {f: i for i, f in enumerate(ordered(out["fidelity"], FIDELITY_ORDER))}
     out["_t"], out["_f"] = out["task"].map(task_rank), out["fidelity"].map(fid_rank)
     order = ["_t", "variant", "_f", "cost"]
     return out.sort_values(order).drop(columns=["_t", "_f"]).reset_index(drop=True)
+
+
+def _reached(milestones: pd.Series) -> str:
+    """``lifted 3, handed_off 2``: how many trials reached each milestone."""
+    reached: dict[str, int] = {}
+    for m in milestones:
+        for name, hit in m.items():
+            reached[name] = reached.get(name, 0) + int(hit)
+    return ", ".join(f"{k} {v}" for k, v in reached.items())
 
 
 def cheapest(table: pd.DataFrame, need: float = 5 / 6) -> pd.DataFrame:
@@ -183,8 +228,8 @@ def markdown(table: pd.DataFrame, best: pd.DataFrame) -> str:
     """The map and the cheapest points as markdown tables."""
     lines = [
         "| task | variant | fidelity | samples x horizon | interval | latency | completed | finished cleanly "
-        "| milestones | TTF median | object error in span / after span / whole trial / final (mm, median) "
-        "| compute per trial (s) | rollout steps per s |",
+        "| milestones | median TTF | median object error in span / after span / whole trial / final (mm) "
+        "| median compute per trial (s) | rollout steps per s |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table.itertuples():

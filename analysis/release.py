@@ -32,6 +32,7 @@ from analysis._cli import fail, sweep_parser
 from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, select
 from analysis.paper_fig3 import FIDELITY_ORDER
 from analysis.paper_fig3 import load as fig3_load
+from analysis.summarize import Stat, summarize
 
 #: Which error a task's table shows: the free body's position, or (no free body) its articulations.
 ERRORS = {"position": "object_position_error", "articulation": "object_articulation_error"}
@@ -52,50 +53,51 @@ def error_kind(df: pd.DataFrame) -> str:
     return "position" if (pos > 1e-9).any() else "articulation"
 
 
+#: Per task x variant x fidelity (:func:`release_table`): column -> how it is reduced over the trials
+#: (``_span``, ``_after``, ``_final``: the task's error, :func:`error_kind`).
+RELEASE_STATS: dict[str, Stat] = {
+    "n": Stat("seed", "n"),
+    "completed": Stat("completed", "sum"),  # NaN-valued fields count as not reached
+    "settled": Stat("settled", "sum"),
+    "finished_cleanly": Stat("finished_cleanly", "sum"),
+    "error_span": Stat("_span", "median"),
+    "error_after": Stat("_after", "median"),
+    "error_final": Stat("_final", "median"),
+}
+
+
 def release_table(df: pd.DataFrame) -> pd.DataFrame:
-    """One row per task x variant x fidelity: ``n`` (ok trials), ``completed``, ``settled``,
+    """One row per task x variant x fidelity (:data:`RELEASE_STATS` on
+    :func:`analysis.summarize.summarize`): ``n`` (ok trials), ``completed``, ``settled``,
     ``finished_cleanly`` (counts; NaN-valued fields count as not reached), ``error`` (its kind), and the
     medians ``error_span``, ``error_after``, ``error_final`` (m or rad)."""
     good = ok_trials(df)
-    rows = []
-    for task in ordered(good["task"], TASK_ORDER):
-        at = good[good["task"] == task]
-        kind = error_kind(at)
-        col = ERRORS[kind]
-        for variant in ordered(at["variant"], RELEASE_ORDER):
-            for fid in ordered(at.loc[at["variant"] == variant, "fidelity"], FIDELITY_ORDER):
-                g = at[(at["variant"] == variant) & (at["fidelity"] == fid)]
+    kinds = {task: error_kind(good[good["task"] == task]) for task in good["task"].unique()}
 
-                def median(name: str, g=g) -> float:
-                    values = pd.to_numeric(g[name], errors="coerce") if name in g else pd.Series([])
-                    return float(values.median()) if values.notna().any() else math.nan
+    def values(suffix: str) -> list[float]:
+        cols = {
+            t: (f"{ERRORS[k]}_{suffix}" if suffix != "final" else f"final_{ERRORS[k]}")
+            for t, k in kinds.items()
+        }
+        return [
+            pd.to_numeric(pd.Series([r.get(cols[t], math.nan)]), errors="coerce").iloc[0]
+            for t, r in zip(good["task"], good.to_dict("records"), strict=True)
+        ]
 
-                def count(name: str, g=g) -> int:
-                    return int(g[name].fillna(False).astype(bool).sum()) if name in g else 0
-
-                rows.append(
-                    {
-                        "task": task,
-                        "variant": variant,
-                        "fidelity": fid,
-                        "n": len(g),
-                        "completed": count("completed"),
-                        "settled": count("settled"),
-                        "finished_cleanly": count("finished_cleanly"),
-                        "error": kind,
-                        "error_span": median(f"{col}_span_mean"),
-                        "error_after": median(f"{col}_after_mean"),
-                        "error_final": median(f"final_{col}"),
-                    }
-                )
-    return pd.DataFrame(rows)
+    good = good.assign(_span=values("span_mean"), _after=values("after_mean"), _final=values("final"))
+    order = {"task": TASK_ORDER, "variant": RELEASE_ORDER, "fidelity": FIDELITY_ORDER}
+    out = summarize(good, by=["task", "variant", "fidelity"], stats=RELEASE_STATS, order=order)
+    for c in ("completed", "settled", "finished_cleanly"):
+        out[c] = out[c].fillna(0).astype(int)
+    out.insert(7, "error", out["task"].map(kinds))
+    return out
 
 
 def markdown(table: pd.DataFrame) -> str:
     """The table as markdown (errors in mm, or mrad for an articulation)."""
     lines = [
         "| task | variant | fidelity | n | completed | settled | finished cleanly "
-        "| object error: span / after span / final (median) |",
+        "| median object error: span / after span / final |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in table.itertuples(index=False):

@@ -30,6 +30,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from analysis.aggregate import TASK_ORDER, ordered
+from analysis.summarize import Stat, summarize
 
 #: Methods in the order of tables and legends; others follow, sorted.
 METHOD_ORDER: tuple[str, ...] = ("replay", "full", "joint_space", "wrist", "robust")
@@ -88,42 +89,49 @@ def bootstrap(values: np.ndarray, rng: np.random.Generator, draws: int = 2000) -
     return float(np.percentile(means, 5)), float(np.percentile(means, 95))
 
 
+#: Per task, method and error level (:func:`summary`): column -> how it is reduced over the trials; the
+#: 90 % bootstrap intervals of the success rate and the mean TTF are added by :func:`summary`.
+ROBUSTNESS_STATS: dict[str, Stat] = {
+    "trials": Stat("seed", "n"),
+    "errors": Stat("_error", "sum"),
+    "success": Stat("completed", "mean"),
+    "ttf_median": Stat("ttf", "median"),
+    "ttf_mean": Stat("ttf", "mean"),
+}
+
+
 def summary(df: pd.DataFrame, seed: int = 0, axis: str = "offset") -> pd.DataFrame:
-    """Per task, method and error (column ``axis`` of :data:`AXES`): trials, success rate and mean TTF
-    with their 90 % bootstrap intervals, median TTF, and how many trials reached each milestone."""
+    """Per task, method and error (column ``axis`` of :data:`AXES`; :data:`ROBUSTNESS_STATS` on
+    :func:`analysis.summarize.summarize`): trials, success rate and mean TTF with their 90 % bootstrap
+    intervals, median TTF, and how many trials reached each milestone."""
     rng = np.random.default_rng(seed)
-    rows = []
-    for task in ordered(df["task"], TASK_ORDER):
-        for method in ordered(df.loc[df["task"] == task, "method"], METHOD_ORDER):
-            sel = df[(df["task"] == task) & (df["method"] == method)]
-            for level in sorted(sel[axis].unique()):
-                g = sel[sel[axis] == level]
-                ok = g["completed"].to_numpy(float)
-                lo, hi = bootstrap(ok, rng)
-                ttf = pd.to_numeric(g["ttf"], errors="coerce").dropna()
-                ttf_lo, ttf_hi = bootstrap(ttf.to_numpy(float), rng)
-                reached: dict[str, int] = {}
-                for milestones in g["milestones"]:
-                    for name, hit in milestones.items():
-                        reached[name] = reached.get(name, 0) + int(hit)
-                rows.append(
-                    {
-                        "task": task,
-                        "method": method,
-                        axis: level,
-                        "trials": len(g),
-                        "errors": int((g["status"] != "ok").sum()),
-                        "success": float(ok.mean()),
-                        "success_lo": lo,
-                        "success_hi": hi,
-                        "ttf_median": float(ttf.median()) if len(ttf) else np.nan,
-                        "ttf_mean": float(ttf.mean()) if len(ttf) else np.nan,
-                        "ttf_lo": ttf_lo,
-                        "ttf_hi": ttf_hi,
-                        "milestones": " · ".join(f"{n} {k}/{len(g)}" for n, k in reached.items()),
-                    }
-                )
-    return pd.DataFrame(rows)
+    by = ["task", "method", axis]
+    order = {"task": TASK_ORDER, "method": METHOD_ORDER, axis: sorted(df[axis].unique())}
+    out = summarize(df.assign(_error=df["status"] != "ok"), by=by, stats=ROBUSTNESS_STATS, order=order)
+    out["errors"] = out["errors"].astype(int)
+    bands: dict[str, list] = {
+        "success_lo": [],
+        "success_hi": [],
+        "ttf_lo": [],
+        "ttf_hi": [],
+        "milestones": [],
+    }
+    for task, method, level in out[by].itertuples(index=False):  # rng drawn in the table's order
+        g = df[(df["task"] == task) & (df["method"] == method) & (df[axis] == level)]
+        lo, hi = bootstrap(g["completed"].to_numpy(float), rng)
+        ttf_lo, ttf_hi = bootstrap(pd.to_numeric(g["ttf"], errors="coerce").dropna().to_numpy(float), rng)
+        reached: dict[str, int] = {}
+        for milestones in g["milestones"]:
+            for name, hit in milestones.items():
+                reached[name] = reached.get(name, 0) + int(hit)
+        reached_text = " · ".join(f"{n} {k}/{len(g)}" for n, k in reached.items())
+        for k, v in zip(bands, (lo, hi, ttf_lo, ttf_hi, reached_text), strict=True):
+            bands[k].append(v)
+    for k, v in bands.items():
+        out[k] = v
+    cols = [*by, "trials", "errors", "success", "success_lo", "success_hi", "ttf_median", "ttf_mean"]
+    cols += ["ttf_lo", "ttf_hi", "milestones"]
+    return out[cols]
 
 
 def survives(table: pd.DataFrame, axis: str = "offset") -> pd.DataFrame:
