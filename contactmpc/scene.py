@@ -7,6 +7,7 @@ the rest of the library needs are resolved to ids and array addresses once, here
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated, Any
@@ -175,6 +176,11 @@ def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names: Sequence[str], what: 
 # 246 mm gap).
 FREE_PLANNER_OPTIONS: dict[str, Any] = {"ccd_iterations": 10, "ccd_tolerance": 1e-6}
 
+# The cuts of ``scene.planning_fast`` (keyword arguments of :func:`planning_model`): what the profile
+# (``python launch.py job=profile``, studies/plan_cost) found to save time on every paper task with the
+# plant-vs-planning-model agreement of tests/test_agreement.py kept.
+FAST_PLANNING_CUTS: dict[str, Any] = {"hand_self_collision": False}
+
 _OPTION_ENUMS = {
     "cone": mujoco.mjtCone,
     "integrator": mujoco.mjtIntegrator,
@@ -210,6 +216,45 @@ def set_options(opt: mujoco.MjOption, options: dict[str, Any], what: str = "scen
             setattr(opt, key, value)
         except (TypeError, ValueError) as err:
             raise SceneError(f"{what}: {key}={value!r}: {err}") from err
+
+
+def planning_model(
+    scene: Scene,
+    options: dict[str, Any] | None = None,
+    hand_self_collision: bool = True,
+) -> mujoco.MjModel:
+    """A copy of the scene's planning model with cuts that make a rollout step cheaper (the plant and the
+    scene's own planning model unchanged); no cut given: an equal copy.
+
+    Args:
+        scene: the scene.
+        options: ``mjOption`` fields set on top of the scene's (:func:`set_options`), e.g.
+            ``{iterations: 20, tolerance: 1e-6}``.
+        hand_self_collision: False: no contacts between two geoms of the hand (the hand's geoms take a
+            contact type bit no geom has, which every other geom that collided with the hand accepts),
+            so contacts between hand and world or object are exactly the old ones.
+
+    Raises:
+        SceneError: an option the model does not take, or a hand whose colliding geoms differ in their
+            contact bits.
+    """
+    m = copy.copy(scene.planner_model)
+    if options:
+        set_options(m.opt, dict(options), what="planning_model.options")
+    if not hand_self_collision:
+        hand = (scene.index.link_of_geom >= 0) & ((m.geom_contype | m.geom_conaffinity) > 0)
+        bits = {(int(a), int(b)) for a, b in zip(m.geom_contype[hand], m.geom_conaffinity[hand], strict=True)}
+        used = int(np.bitwise_or.reduce(m.geom_contype | m.geom_conaffinity))
+        free = next((1 << k for k in range(32) if not used & (1 << k)), 0)
+        if len(bits) != 1 or not free:
+            raise SceneError(
+                f"task {scene.task.name!r}: hand_self_collision=False needs one pair of contact "
+                f"bits on every hand geom and a free bit (found {sorted(bits)})"
+            )
+        ((contype, conaffinity),) = bits
+        m.geom_conaffinity[~hand & ((m.geom_conaffinity & contype) > 0)] |= free  # they accept the hand
+        m.geom_contype[hand] = free
+    return m
 
 
 def _link_object_dist(m: mujoco.MjModel, hand: Hand, bodies: np.ndarray) -> dict[str, np.ndarray]:
@@ -271,6 +316,9 @@ class Scene:
             geom of an object body): the distance between them, read up to this cutoff (m), for the
             cost's surface and clearance terms (``cost.surface_weight``, ``cost.clearance_weight``); 0
             (default) adds none. Sensors do not act on the physics.
+        planning_fast: True: the planning model takes the cuts of :data:`FAST_PLANNING_CUTS`
+            (:func:`planning_model`), measured to leave the plant-vs-planning-model agreement as it was
+            (``studies/plan_cost``); False (default): none.
 
     Raises:
         SceneError: if the scene does not compile or a name does not resolve.
@@ -289,6 +337,7 @@ class Scene:
         hand_root: tuple[float, float, float] = (0.0, 0.0, 0.0),
         planner_options: dict[str, Any] | None = FREE_PLANNER_OPTIONS,
         link_distance_cutoff: Annotated[float, Ge(0)] = 0.0,
+        planning_fast: bool = False,
     ) -> None:
         if not 0 < plant_timestep <= planner_timestep:
             raise SceneError(
@@ -346,6 +395,9 @@ class Scene:
             msg = " ".join(str(err).split())
             raise SceneError(f"task {task.name!r}: scene failed to compile: {msg}") from err
         self.index = SceneIndex.resolve(self.plant_model, hand, task)
+        self.planning_fast = bool(planning_fast)
+        if self.planning_fast:
+            self.planner_model = planning_model(self, **FAST_PLANNING_CUTS)
 
     def _add_hand_object_contact(self) -> None:
         """One contact sensor per outermost object body (the subtree of the hand's root against the
