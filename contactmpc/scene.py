@@ -8,6 +8,7 @@ the rest of the library needs are resolved to ids and array addresses once, here
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated, Any
@@ -179,7 +180,7 @@ FREE_PLANNER_OPTIONS: dict[str, Any] = {"ccd_iterations": 10, "ccd_tolerance": 1
 # The cuts of ``scene.planning_fast`` (keyword arguments of :func:`planning_model`): what the profile
 # (``python launch.py job=profile``, studies/plan_cost) found to save time on every paper task with the
 # plant-vs-planning-model agreement of tests/test_agreement.py kept.
-FAST_PLANNING_CUTS: dict[str, Any] = {"hand_self_collision": False}
+FAST_PLANNING_CUTS: dict[str, Any] = {"hand_pairs": "across_fingers"}
 
 _OPTION_ENUMS = {
     "cone": mujoco.mjtCone,
@@ -221,40 +222,77 @@ def set_options(opt: mujoco.MjOption, options: dict[str, Any], what: str = "scen
 def planning_model(
     scene: Scene,
     options: dict[str, Any] | None = None,
-    hand_self_collision: bool = True,
+    hand_pairs: str = "all",
 ) -> mujoco.MjModel:
-    """A copy of the scene's planning model with cuts that make a rollout step cheaper (the plant and the
-    scene's own planning model unchanged); no cut given: an equal copy.
+    """A copy of the scene's exact planning model (the one without ``scene.planning_fast``) with cuts that
+    make a rollout step cheaper (the plant and the scene's planning model unchanged); no cut: an equal copy.
 
     Args:
         scene: the scene.
         options: ``mjOption`` fields set on top of the scene's (:func:`set_options`), e.g.
             ``{iterations: 20, tolerance: 1e-6}``.
-        hand_self_collision: False: no contacts between two geoms of the hand (the hand's geoms take a
-            contact type bit no geom has, which every other geom that collided with the hand accepts),
-            so contacts between hand and world or object are exactly the old ones.
+        hand_pairs: which contacts between two links of the hand the planning model keeps: ``all`` (the
+            plant's), ``across_fingers`` (none between two links of one finger, i.e. a link and its
+            ancestor below the palm, the link every other link hangs from; palm-finger and finger-finger
+            pairs kept) or ``none`` (the hand's geoms take a contact bit no geom has, which every geom
+            that collided with the hand accepts, so hand-world and hand-object pairs are the old ones).
 
     Raises:
-        SceneError: an option the model does not take, or a hand whose colliding geoms differ in their
-            contact bits.
+        SceneError: an option the model does not take, an unknown ``hand_pairs``, or (``none``) a hand
+            whose colliding geoms differ in their contact bits.
     """
-    m = copy.copy(scene.planner_model)
+    if hand_pairs not in ("all", "across_fingers", "none"):
+        raise SceneError(f"planning_model.hand_pairs = {hand_pairs!r}: expected all, across_fingers or none")
+    if hand_pairs == "across_fingers":
+        m = _without_finger_pairs(scene)
+    else:
+        m = copy.copy(scene.exact_planner_model)
+    if scene.planner_options and hand_pairs == "across_fingers":
+        set_options(m.opt, scene.planner_options)
     if options:
         set_options(m.opt, dict(options), what="planning_model.options")
-    if not hand_self_collision:
+    if hand_pairs == "none":
         hand = (scene.index.link_of_geom >= 0) & ((m.geom_contype | m.geom_conaffinity) > 0)
         bits = {(int(a), int(b)) for a, b in zip(m.geom_contype[hand], m.geom_conaffinity[hand], strict=True)}
         used = int(np.bitwise_or.reduce(m.geom_contype | m.geom_conaffinity))
         free = next((1 << k for k in range(32) if not used & (1 << k)), 0)
         if len(bits) != 1 or not free:
             raise SceneError(
-                f"task {scene.task.name!r}: hand_self_collision=False needs one pair of contact "
-                f"bits on every hand geom and a free bit (found {sorted(bits)})"
+                f"task {scene.task.name!r}: hand_pairs=none needs one pair of contact bits on every hand "
+                f"geom and a free bit (found {sorted(bits)})"
             )
-        ((contype, conaffinity),) = bits
+        ((contype, _),) = bits
         m.geom_conaffinity[~hand & ((m.geom_conaffinity & contype) > 0)] |= free  # they accept the hand
         m.geom_contype[hand] = free
     return m
+
+
+def finger_pairs(m: mujoco.MjModel, link_bodies: np.ndarray) -> list[tuple[int, int]]:
+    """(ancestor, descendant) body ids of the hand links of one finger: pairs of links, one below the
+    other, neither of them the palm (the link that is an ancestor of every other link)."""
+
+    def ancestors(b: int) -> set[int]:
+        out = set()
+        while b > 0:
+            b = int(m.body_parentid[b])
+            out.add(b)
+        return out
+
+    links = [int(b) for b in link_bodies]
+    above = {b: ancestors(b) for b in links}
+    palms = {a for a in links if all(a in above[b] for b in links if b != a)}
+    return [(a, b) for b in links for a in links if a in above[b] and a not in palms]
+
+
+def _without_finger_pairs(scene: Scene) -> mujoco.MjModel:
+    """The planning model compiled with contact excludes between the links of each finger."""
+    spec = scene.spec.copy()
+    m = scene.exact_planner_model
+    name = functools.partial(mujoco.mj_id2name, m, mujoco.mjtObj.mjOBJ_BODY)
+    for a, b in finger_pairs(m, scene.index.link_bodies):
+        spec.add_exclude(bodyname1=name(a), bodyname2=name(b))
+    spec.option.timestep = scene.planner_timestep
+    return spec.compile()
 
 
 def _link_object_dist(m: mujoco.MjModel, hand: Hand, bodies: np.ndarray) -> dict[str, np.ndarray]:
@@ -396,6 +434,7 @@ class Scene:
             raise SceneError(f"task {task.name!r}: scene failed to compile: {msg}") from err
         self.index = SceneIndex.resolve(self.plant_model, hand, task)
         self.planning_fast = bool(planning_fast)
+        self.exact_planner_model = self.planner_model  # without the cuts of planning_fast
         if self.planning_fast:
             self.planner_model = planning_model(self, **FAST_PLANNING_CUTS)
 

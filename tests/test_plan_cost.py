@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from contactmpc.jobs.benchmark import STATE
-from contactmpc.scene import FAST_PLANNING_CUTS, planning_model
+from contactmpc.scene import FAST_PLANNING_CUTS, finger_pairs, planning_model
 from tests.conftest import build_scene
 
 
@@ -55,9 +55,9 @@ def test_no_cut_is_the_scene_planning_model_bit_for_bit():
     assert np.array_equal(q0, q2) and np.array_equal(s0, s2)
 
 
-def test_hand_self_collision_cut_drops_only_hand_hand_pairs():
+def test_hand_pairs_none_drops_only_hand_hand_pairs():
     scene = build_scene(("task=apple",))
-    cut = planning_model(scene, hand_self_collision=False)
+    cut = planning_model(scene, hand_pairs="none")
     m = scene.planner_model
     geoms = np.arange(m.ngeom)
     hand = scene.index.link_of_geom >= 0
@@ -65,12 +65,49 @@ def test_hand_self_collision_cut_drops_only_hand_hand_pairs():
     hand_pair = hand[:, None] & hand[None, :]
     assert before[hand_pair].any() and not after[hand_pair].any()
     assert np.array_equal(before[~hand_pair], after[~hand_pair])  # hand-world, hand-object, the rest
-    assert scene.plant_model.geom_contype[hand].tolist() == m.geom_contype[hand].tolist()  # plant kept
+    assert np.array_equal(scene.plant_model.geom_contype, m.geom_contype)  # the plant and the scene's kept
+
+
+def _contact_pairs(model: mujoco.MjModel, qpos: np.ndarray) -> set[tuple[int, int]]:
+    d = mujoco.MjData(model)
+    d.qpos[:] = qpos
+    mujoco.mj_forward(model, d)
+    return {tuple(sorted((int(c.geom1), int(c.geom2)))) for c in d.contact[: d.ncon]}
+
+
+def test_across_fingers_drops_only_pairs_within_a_finger_and_is_what_planning_fast_builds():
+    """The links of one finger never touch each other (200 random hand poses over the joint ranges: every
+    contact of the exact planning model is one of the cut model's), but their bounding spheres overlap:
+    narrow-phase work the cut saves."""
+    scene = build_scene(("task=apple",))
+    m = scene.planner_model
+    cut = planning_model(scene, hand_pairs="across_fingers")
+    pairs = {tuple(sorted(p)) for p in finger_pairs(m, scene.index.link_bodies)}
+    assert pairs and not any(scene.index.link_bodies[0] in p for p in pairs)  # the palm keeps its contacts
+    geoms = [np.flatnonzero(m.geom_bodyid == b) for b in range(m.nbody)]
+    rng = np.random.default_rng(0)
+    adr = scene.index.hand_qpos
+    joints = [int(np.flatnonzero(m.jnt_qposadr == a)[0]) for a in adr]
+    lo, hi = m.jnt_range[joints].T
+    overlapping = 0
+    for _ in range(200):
+        q = scene.make_data(m).qpos.copy()
+        q[adr] = rng.uniform(lo, hi)
+        assert _contact_pairs(cut, q) == _contact_pairs(m, q)
+        d = mujoco.MjData(m)
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        for a, b in pairs:
+            for ga in geoms[a]:
+                for gb in geoms[b]:
+                    gap = np.linalg.norm(d.geom_xpos[ga] - d.geom_xpos[gb])
+                    overlapping += gap < m.geom_rbound[ga] + m.geom_rbound[gb]
+    assert overlapping > 0
     fast = build_scene(("task=apple", "scene.planning_fast=true"))
-    assert FAST_PLANNING_CUTS["hand_self_collision"] is False
-    assert np.array_equal(fast.planner_model.geom_contype, cut.geom_contype)
-    assert np.array_equal(fast.planner_model.geom_conaffinity, cut.geom_conaffinity)
-    assert np.array_equal(fast.plant_model.geom_contype, scene.plant_model.geom_contype)
+    assert (
+        FAST_PLANNING_CUTS == {"hand_pairs": "across_fingers"} and fast.planner_model.nexclude == cut.nexclude
+    )
+    assert fast.plant_model.nexclude == m.nexclude  # the plant keeps every contact
 
 
 def test_profile_job_splits_a_plan_by_phase_and_part(tmp_path):
@@ -80,7 +117,7 @@ def test_profile_job_splits_a_plan_by_phase_and_part(tmp_path):
 
     cfg = compose_config(
         ("task=apple", "job=profile", "job.every=2.0", "job.repeats=1", "duration=4.5",
-         "+job.alternatives.fast={hand_self_collision: false}")
+         "+job.alternatives.fast={hand_pairs: across_fingers}")
     )  # fmt: skip
     import launch
 

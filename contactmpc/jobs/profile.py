@@ -52,6 +52,7 @@ from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
 from contactmpc.control.samplers import SplineSpace
 from contactmpc.jobs.benchmark import STATE, full_state, interleaved, replay
+from contactmpc.jobs.trial import summarize
 from contactmpc.records import machine, write_json
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene, planning_model
@@ -79,15 +80,23 @@ def phase_of(trial: Trial, t: float) -> str:
     return "before" if i < active[0] else ("contact" if i <= active[-1] else "after")
 
 
-def visit_states(trial: Trial, every: float, visit: str) -> list[tuple[float, np.ndarray]]:
+def visit_states(trial: Trial, every: float, visit: str) -> tuple[list[tuple[float, np.ndarray]], dict]:
     """The plant's full states at control times 0, ``every``, 2 ``every``, ... below the trial's
     duration: [(time, state)], replaying the reference (``replay``) or in the planner's closed loop
-    (``planner``, the trial itself)."""
+    (``planner``, the trial itself, whose outcome comes second: ``completed``, ``ttf``, ... as a trial's
+    record has them; ``{}`` for a replay)."""
     scene = trial.scene
     times = list(np.arange(0.0, trial.duration - 1e-9, every))
     if visit == "planner":
-        trial.run(snapshots=tuple(times))
-        return [(float(s[0]), s) for s in trial.snapshots.values()]
+        wall = time.perf_counter()
+        series = trial.run(snapshots=tuple(times)).arrays()
+        summary = summarize(series, trial, time.perf_counter() - wall, 0.3, 6, 0.3)
+        keep = ("ttf", "completed", "finished_cleanly", "plan_seconds_mean", "plan_seconds_p95", "num_plans")
+        outcome = {k: summary[k] for k in keep}
+        outcome["plan_us_per_sample_step"] = (
+            1e6 * summary["plan_seconds_mean"] / (trial.planner.num_samples * trial.planner.steps)
+        )
+        return [(float(s[0]), s) for s in trial.snapshots.values()], outcome
     out, pending = [], list(times)
     for t, d in replay(scene, trial, scene.planner_model.opt.timestep):
         while pending and t >= pending[0] - 1e-9:
@@ -95,7 +104,7 @@ def visit_states(trial: Trial, every: float, visit: str) -> list[tuple[float, np
             out.append((t, full_state(scene.plant_model, d, t)))
         if not pending:
             break
-    return out
+    return out, {}
 
 
 def physics_parts(model: mujoco.MjModel, state: np.ndarray, controls: np.ndarray) -> dict[str, float]:
@@ -194,6 +203,22 @@ def summarise(rows: list[dict[str, float]], columns: list[str]) -> dict[str, dic
     return out
 
 
+def calibration(rows: list[dict[str, float]], samples: int = 128, steps: int = 250, threads: int = 7) -> dict:
+    """The per sample-step cost of a plan over the visited states (one thread's CPU time, us: median,
+    min, max, mean) and the latency it implies for ``samples`` x ``steps`` on ``threads`` threads
+    (:class:`~contactmpc.control.latency.ComputeLatency`, ms; preset=paper: 128 x 250 on 7)."""
+    us = np.array([r["plan_us"] for r in rows])
+    stats = {
+        "median": float(np.median(us)),
+        "min": float(us.min()),
+        "max": float(us.max()),
+        "mean": float(us.mean()),
+    }
+    scale = samples * steps / threads / 1e3  # us per sample-step -> ms of latency
+    return {"sample_step_us": stats, "latency_ms": {k: v * scale for k, v in stats.items()},
+            "samples": samples, "steps": steps, "threads": threads}  # fmt: skip
+
+
 def markdown(label: str, summary: dict[str, dict[str, float]], alternatives: list[str]) -> str:
     """The summary as markdown rows: label, phase, states, plan us, its parts, ncon, alternatives."""
     lines = []
@@ -271,7 +296,7 @@ def profile_plan(
     planner.close()
     planner.nthread = 1
     trial = Trial(scene, reference, sampler, cost, planner, seed, duration=duration, progress=False)
-    states = visit_states(trial, every, visit)
+    states, outcome = visit_states(trial, every, visit)
     rows = [profile_state(trial, t, s, seed, repeats, models) for t, s in states]
     planner.close()
     labels = {str(k): None if v is None else str(v) for k, v in dict(labels or {}).items()}
@@ -286,6 +311,15 @@ def profile_plan(
         f"({visit}); load average before {load_before[0]:.2f}, after {load_after[0]:.2f}"
     )
     print(table)
+    if outcome:
+        print(f"the visited trial (seed {seed}): {outcome}")
+    cal = calibration(rows)
+    us, ms = cal["sample_step_us"], cal["latency_ms"]
+    print(
+        f"calibration: {us['median']:.1f} us per sample-step (median; {us['min']:.1f}-{us['max']:.1f}, "
+        f"mean {us['mean']:.1f}, {len(rows)} states): preset=paper's latency 128 x 250 / 7 threads = "
+        f"{ms['median']:.0f} ms ({ms['min']:.0f}-{ms['max']:.0f})"
+    )
     out = Path(output_dir)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "profile.csv", "w", newline="") as f:
@@ -310,6 +344,8 @@ def profile_plan(
             "machine": machine(),
             "rows": rows,
             "summary": summary,
+            "calibration": cal,
+            "trial": outcome,
             "table": table,
         },
     )
