@@ -331,6 +331,7 @@ def profile_plan(
         out / "profile.json",
         {
             "task": scene.task.name,
+            "seed": seed,
             "labels": labels,
             "num_samples": planner.num_samples,
             "horizon_steps": planner.steps,

@@ -61,27 +61,47 @@ def main(argv: list[str] | None = None) -> int:
     print("|---|---|---|---|---|---|---|---|---|")
     for run in runs:
         us = np.array([r["plan_us"] for r in run["rows"]])
+        if "exact" in run.get("alternatives", {}):  # calibrate on the exact planning model
+            us = np.array([r["plan_exact_us"] for r in run["rows"]])
         ms = us * 128 * 250 / 7 / 1e3
         print(
             f"| {label(run)} | {len(us)} | {run['visit']} every {run['every']} s | {np.median(us):.1f} | "
             f"{us.min():.1f}-{us.max():.1f} | {us.mean():.1f} | {np.median(ms):.0f} | "
             f"{ms.min():.0f}-{ms.max():.0f} | {run['load_before'][0]:.1f} / {run['load_after'][0]:.1f} |"
         )
+    trials = [run for run in runs if run.get("trial")]
+    if trials:
+        print(
+            "\nThe visited closed-loop trials (the scene's planning model; wall time of the trial's plans):\n"
+        )
+        print("| run | fast | seed | completed | TTF | finished cleanly | plans | wall us per sample-step |")
+        print("|---|---|---|---|---|---|---|---|")
+        for run in trials:
+            t, fast = run["trial"], "exact" in run.get("alternatives", {})
+            ttf = "-" if t["ttf"] is None else f"{t['ttf']:.2f}"
+            print(
+                f"| {label(run)} | {fast} | {run.get('seed', '-')} | {t['completed']} | {ttf} | "
+                f"{t['finished_cleanly']} | {t['num_plans']} | {t['plan_us_per_sample_step']:.1f} |"
+            )
     alts = [(run, a) for run in runs for a in run.get("alternatives", {})]
     if alts:
         print("\nPlanning-model cuts timed beside the scene's (interleaved, same states), per sample-step:\n")
-        print("| run | cut | phase | old us | new us | speed-up (means) | median per-state speed-up |")
-        print("|---|---|---|---|---|---|---|")
+        print("| run | old | new | phase | old us | new us | speed-up (means) | median per-state speed-up |")
+        print("|---|---|---|---|---|---|---|---|")
         for run, a in alts:
+            # the scene's model is the old one, unless the alternative is "exact" (a run with
+            # scene.planning_fast=true timing the exact planning model beside it)
+            names = ("exact", "fast") if a == "exact" else ("scene", a)
             for phase in ("before", "contact", "after", "all"):
                 sel = [r for r in run["rows"] if phase in ("all", r["phase"])]
                 if not sel:
                     continue
-                old = np.mean([r["plan_us"] for r in sel])
-                new = np.mean([r[f"plan_{a}_us"] for r in sel])
-                ratio = np.median([r["plan_us"] / r[f"plan_{a}_us"] for r in sel])
-                cells = f"{old:.1f} | {new:.1f} | {old / new:.2f}x | {ratio:.2f}x"
-                print(f"| {label(run)} | {a} | {phase} | {cells} |")
+                scene = np.array([r["plan_us"] for r in sel])
+                alt = np.array([r[f"plan_{a}_us"] for r in sel])
+                old, new = (alt, scene) if a == "exact" else (scene, alt)
+                cells = f"{old.mean():.1f} | {new.mean():.1f} | {old.mean() / new.mean():.2f}x"
+                ratio = np.median(old / new)
+                print(f"| {label(run)} | {names[0]} | {names[1]} | {phase} | {cells} | {ratio:.2f}x |")
     if args.csv:
         rows = [{"run": label(run), **r} for run in runs for r in run["rows"]]
         keys = list(dict.fromkeys(k for r in rows for k in r))
