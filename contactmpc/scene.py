@@ -177,11 +177,6 @@ def ids(model: mujoco.MjModel, kind: mujoco.mjtObj, names: Sequence[str], what: 
 # 246 mm gap).
 FREE_PLANNER_OPTIONS: dict[str, Any] = {"ccd_iterations": 10, "ccd_tolerance": 1e-6}
 
-# The cuts of ``scene.planning_fast`` (keyword arguments of :func:`planning_model`): what the profile
-# (``python launch.py job=profile``, studies/plan_cost) found to save time on every paper task with the
-# plant-vs-planning-model agreement of tests/test_agreement.py kept.
-FAST_PLANNING_CUTS: dict[str, Any] = {"hand_pairs": "across_fingers"}
-
 _OPTION_ENUMS = {
     "cone": mujoco.mjtCone,
     "integrator": mujoco.mjtIntegrator,
@@ -224,7 +219,7 @@ def planning_model(
     options: dict[str, Any] | None = None,
     hand_pairs: str = "all",
 ) -> mujoco.MjModel:
-    """A copy of the scene's exact planning model (the one without ``scene.planning_fast``) with cuts that
+    """A copy of the scene's exact planning model (the one without ``scene.planning_cuts``) with cuts that
     make a rollout step cheaper (the plant and the scene's planning model unchanged); no cut: an equal copy.
 
     Args:
@@ -236,6 +231,9 @@ def planning_model(
             ancestor below the palm, the link every other link hangs from; palm-finger and finger-finger
             pairs kept) or ``none`` (the hand's geoms take a contact bit no geom has, which every geom
             that collided with the hand accepts, so hand-world and hand-object pairs are the old ones).
+            Measured on the paper tasks (``studies/plan_cost``): ``across_fingers`` changes no contact
+            and saves nothing (1.00x); ``none`` saves 1.27-1.44x per sample-step but moves the planning
+            model's object away from the plant's (fingers pressing on each other and on the palm).
 
     Raises:
         SceneError: an option the model does not take, an unknown ``hand_pairs``, or (``none``) a hand
@@ -354,9 +352,12 @@ class Scene:
             geom of an object body): the distance between them, read up to this cutoff (m), for the
             cost's surface and clearance terms (``cost.surface_weight``, ``cost.clearance_weight``); 0
             (default) adds none. Sensors do not act on the physics.
-        planning_fast: True: the planning model takes the cuts of :data:`FAST_PLANNING_CUTS`
-            (:func:`planning_model`), measured to leave the plant-vs-planning-model agreement as it was
-            (``studies/plan_cost``); False (default): none.
+        planning_cuts: cuts of the planning model only (keyword arguments of :func:`planning_model`,
+            e.g. ``{hand_pairs: none}``); ``None`` or ``{}`` (default): none, the planning model as
+            before. Measured in ``studies/plan_cost`` (``job=profile``), none is free: the one that
+            saves (``hand_pairs: none``, 1.27-1.44x less per sample-step) moves the object in the
+            planning model away from the plant's (tests/test_agreement.py: +0.07 to +8.3 mm at the
+            median contact state).
 
     Raises:
         SceneError: if the scene does not compile or a name does not resolve.
@@ -375,7 +376,7 @@ class Scene:
         hand_root: tuple[float, float, float] = (0.0, 0.0, 0.0),
         planner_options: dict[str, Any] | None = FREE_PLANNER_OPTIONS,
         link_distance_cutoff: Annotated[float, Ge(0)] = 0.0,
-        planning_fast: bool = False,
+        planning_cuts: dict[str, Any] | None = None,
     ) -> None:
         if not 0 < plant_timestep <= planner_timestep:
             raise SceneError(
@@ -433,10 +434,13 @@ class Scene:
             msg = " ".join(str(err).split())
             raise SceneError(f"task {task.name!r}: scene failed to compile: {msg}") from err
         self.index = SceneIndex.resolve(self.plant_model, hand, task)
-        self.planning_fast = bool(planning_fast)
-        self.exact_planner_model = self.planner_model  # without the cuts of planning_fast
-        if self.planning_fast:
-            self.planner_model = planning_model(self, **FAST_PLANNING_CUTS)
+        self.planning_cuts = dict(planning_cuts or {})
+        self.exact_planner_model = self.planner_model  # without the planning cuts
+        if self.planning_cuts:
+            unknown = set(self.planning_cuts) - {"options", "hand_pairs"}
+            if unknown:
+                raise SceneError(f"scene.planning_cuts: {sorted(unknown)} not among options, hand_pairs")
+            self.planner_model = planning_model(self, **self.planning_cuts)
 
     def _add_hand_object_contact(self) -> None:
         """One contact sensor per outermost object body (the subtree of the hand's root against the

@@ -1,4 +1,4 @@
-"""The planning-model cuts (``scene.planning_fast``, :func:`contactmpc.scene.planning_model`) and the
+"""The planning-model cuts (``scene.planning_cuts``, :func:`contactmpc.scene.planning_model`) and the
 profile job (``job=profile``): off, the old planning model bit for bit; on, what each cut promises."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from contactmpc.jobs.benchmark import STATE
-from contactmpc.scene import FAST_PLANNING_CUTS, finger_pairs, planning_model
+from contactmpc.scene import finger_pairs, planning_model
 from tests.conftest import build_scene
 
 
@@ -45,12 +45,12 @@ def _grasp_state(scene) -> tuple[np.ndarray, np.ndarray]:
 
 def test_no_cut_is_the_scene_planning_model_bit_for_bit():
     scene = build_scene(("task=apple",))
-    assert not scene.planning_fast
+    assert not scene.planning_cuts
     state, ctrl = _grasp_state(scene)
     q0, s0 = _rollout(scene.planner_model, state, ctrl)
     q1, s1 = _rollout(planning_model(scene), state, ctrl)
     assert np.array_equal(q0, q1) and np.array_equal(s0, s1)
-    off = build_scene(("task=apple", "scene.planning_fast=false"))
+    off = build_scene(("task=apple", "scene.planning_cuts={}"))
     q2, s2 = _rollout(off.planner_model, state, ctrl)
     assert np.array_equal(q0, q2) and np.array_equal(s0, s2)
 
@@ -75,7 +75,7 @@ def _contact_pairs(model: mujoco.MjModel, qpos: np.ndarray) -> set[tuple[int, in
     return {tuple(sorted((int(c.geom1), int(c.geom2)))) for c in d.contact[: d.ncon]}
 
 
-def test_across_fingers_drops_only_pairs_within_a_finger_and_is_what_planning_fast_builds():
+def test_across_fingers_drops_only_pairs_within_a_finger_and_scene_planning_cuts_builds_it():
     """The links of one finger never touch each other (200 random hand poses over the joint ranges: every
     contact of the exact planning model is one of the cut model's), but their bounding spheres overlap:
     narrow-phase work the cut saves."""
@@ -103,10 +103,8 @@ def test_across_fingers_drops_only_pairs_within_a_finger_and_is_what_planning_fa
                     gap = np.linalg.norm(d.geom_xpos[ga] - d.geom_xpos[gb])
                     overlapping += gap < m.geom_rbound[ga] + m.geom_rbound[gb]
     assert overlapping > 0
-    fast = build_scene(("task=apple", "scene.planning_fast=true"))
-    assert (
-        FAST_PLANNING_CUTS == {"hand_pairs": "across_fingers"} and fast.planner_model.nexclude == cut.nexclude
-    )
+    fast = build_scene(("task=apple", "scene.planning_cuts={hand_pairs: across_fingers}"))
+    assert fast.planner_model.nexclude == cut.nexclude
     assert fast.plant_model.nexclude == m.nexclude  # the plant keeps every contact
 
 

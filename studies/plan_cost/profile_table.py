@@ -90,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         print("|---|---|---|---|---|---|---|---|")
         for run, a in alts:
             # the scene's model is the old one, unless the alternative is "exact" (a run with
-            # scene.planning_fast=true timing the exact planning model beside it)
+            # scene.planning_cuts timing the exact planning model beside its cut one)
             names = ("exact", "fast") if a == "exact" else ("scene", a)
             for phase in ("before", "contact", "after", "all"):
                 sel = [r for r in run["rows"] if phase in ("all", r["phase"])]

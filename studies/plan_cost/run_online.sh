@@ -5,7 +5,7 @@
 #   bash studies/plan_cost/run_online.sh [online|map|all]     (default: all)
 # Each run's record goes to outputs/plan_cost/<part>/<run>/ (trial.json + timeseries.npz); its trial.json is
 # copied to studies/plan_cost/records/<part>/<run>.json. A run whose record exists is skipped (resume=true).
-# Extra overrides for every run (e.g. scene.planning_fast=true) via EXTRA="..." in the environment.
+# Extra overrides for every run (e.g. scene.planning_cuts='{hand_pairs: none}') via EXTRA="..." in the environment.
 # Budget on a 2-core AMD EPYC: online 4 tasks x 3 slowdowns x 2 runs, each its slowed trial's wall time
 # (39-69 s of control time x slowdown: about 2 h 10 min in all, on both cores); the map 3 latencies x 3 seeds
 # single-threaded, two at a time (~3-4 CPU-min each: about 15-20 min).
