@@ -48,7 +48,6 @@ EXPERIMENTS = [
 HERE = Path(__file__).resolve().parent
 PARTS = ("collision", "constraint", "sensors", "kinematics", "physics_rest", "cost", "planner_rest")
 PHASES = ("before", "contact", "after", "all")
-VISITS = {"replay": "the reference replayed", "planner": "the closed loop"}
 #: The cut the scene ran with (``scene.planning_cuts``) and the alternatives timed beside it.
 FAST, EXACT, NONE = "across_fingers", "exact", "none"
 #: The goal of issue 32, item 2: the per sample-step cost over a trial this many times lower.
@@ -73,8 +72,9 @@ def _latency_model() -> tuple[int, int, int, float]:
     )
 
 
-def _load() -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    rec = HERE / "records"
+def _load(study) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """The study's records: every visited state's row (with ``visit``), one row per run, the agreement."""
+    rec = study.dir / "records"
     rows = pd.concat(
         [
             pd.read_csv(rec / f"profile_{v}.csv").assign(visit=k)
@@ -257,7 +257,7 @@ def trials_table(runs: pd.DataFrame, rows: pd.DataFrame) -> str:
 
 
 def report(study) -> str:
-    rows, runs, ag = _load()
+    rows, runs, ag = _load(study)
     samples, steps, threads, model_s = _latency_model()
     model_us = model_s * 1e6
     model_ms = samples * steps * model_us / threads / 1e3
