@@ -1,14 +1,16 @@
 """The plan-cost study's tables from ``job=profile`` runs (issue 32, items 1-3).
 
     python studies/plan_cost/profile_table.py outputs/plan_cost/profile \
-        --csv studies/plan_cost/records/profile.csv
+        --csv studies/plan_cost/records/profile_replay.csv --runs studies/plan_cost/records/runs_replay.csv
 
 Reads every ``profile.json`` under the given directories and prints, in markdown: the per sample-step cost
 by run (task, variant, preset) x phase x part; the calibration (median and range of the plan's per
 sample-step cost over the visited states, and the latency it implies for preset=paper, 128 x 250 on 7
 threads); and, where a run timed planning-model cuts beside the scene's (``job.alternatives``), the
 speed-up per run and phase (the mean cost over the states, old / new) with the median of the per-state
-ratios. The machine's load during each run is printed with it. ``--csv`` also writes every state's row.
+ratios. The machine's load during each run is printed with it. ``--csv`` also writes every state's row,
+``--runs`` one row per run (how it visited, the machine and its load, the visited trial's outcome): the
+records ``studies/plan_cost/report.py`` makes the study's report from.
 """
 
 from __future__ import annotations
@@ -39,10 +41,35 @@ def label(run: dict) -> str:
     return " ".join(str(labels.get(k) or "-") for k in ("task", "variant", "preset"))
 
 
+def run_row(run: dict) -> dict:
+    """One run's row for ``--runs``: its label, how it visited the trial, the machine and its load (1-min
+    load average before and after), and the visited closed-loop trial's outcome where it ran one."""
+    machine = run.get("machine") or {}
+    row = {
+        "run": label(run),
+        "visit": run["visit"],
+        "every": run["every"],
+        "repeats": run.get("repeats"),
+        "seed": run.get("seed"),
+        "states": len(run["rows"]),
+        "alternatives": " ".join(run.get("alternatives", {})),
+        "cpu": machine.get("cpu"),
+        "logical_cpus": machine.get("logical_cpus"),
+        "load_before": run["load_before"][0],
+        "load_after": run["load_after"][0],
+        "seconds": run.get("seconds"),
+    }
+    trial = run.get("trial") or {}
+    for k in ("completed", "ttf", "finished_cleanly", "num_plans", "plan_us_per_sample_step"):
+        row[f"trial_{k}"] = trial.get(k)
+    return row
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dirs", nargs="+", help="directories holding profile.json files")
     parser.add_argument("--csv", help="write every visited state's row here")
+    parser.add_argument("--runs", help="write one row per run here (visit, machine, load, visited trial)")
     args = parser.parse_args(argv)
     runs = load(args.dirs)
     if not runs:
@@ -111,6 +138,14 @@ def main(argv: list[str] | None = None) -> int:
             w.writeheader()
             w.writerows(rows)
         print(f"\nwrote {args.csv}")
+    if args.runs:
+        Path(args.runs).parent.mkdir(parents=True, exist_ok=True)
+        rows = [run_row(run) for run in runs]
+        with open(args.runs, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        print(f"wrote {args.runs}")
     return 0
 
 

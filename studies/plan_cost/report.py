@@ -1,0 +1,458 @@
+"""What a plan costs (issue 32): where a plan's time goes over a trial's states, by phase and by part; which
+cuts of the planning model save time and what they cost in agreement with the plant; the latency of
+``preset=paper`` calibrated from a whole trial's states instead of one."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import OmegaConf
+
+from analysis.summarize import Fmt
+from analysis.summarize import markdown as _markdown
+
+QUESTION = (
+    "Where does a plan's time go over a whole trial, which planning-model cuts are free, and what latency "
+    "does a calibration over a trial's states give preset=paper?"
+)
+TITLE = "What a plan costs: the profile, the cuts, the calibrated latency"
+_PROFILE = (
+    "python launch.py job=profile task={task} variant={variant} preset=paper_32samples seed=0 {visit} "
+    "job.repeats=2 scene.planning_cuts='{{hand_pairs: across_fingers}}' '+job.alternatives.exact={{}}' "
+    "'+job.alternatives.none={{hand_pairs: none}}' hydra.run.dir=outputs/plan_cost/{out}/{task}_{variant}"
+)
+_REPLAY = [("paper_apple", "full"), ("paper_bottle", "full"), ("paper_doorknob", "full"),
+           ("paper_stapler", "full"), ("paper_stapler", "wrist_clearance")]  # fmt: skip
+_LOOP = [("paper_apple", "full", 20), ("paper_bottle", "full", 14), ("paper_stapler", "wrist_clearance", 20)]
+EXPERIMENTS = [
+    *(
+        _PROFILE.format(task=t, variant=v, visit="job.visit=replay job.every=5", out="profile")
+        for t, v in _REPLAY
+    ),
+    *(
+        _PROFILE.format(
+            task=t, variant=v, visit=f"job.visit=planner job.every=2.5 duration={d}", out="profile_loop"
+        )
+        for t, v, d in _LOOP
+    ),
+    "python studies/plan_cost/profile_table.py outputs/plan_cost/profile "
+    "--csv studies/plan_cost/records/profile_replay.csv --runs studies/plan_cost/records/runs_replay.csv",
+    "python studies/plan_cost/profile_table.py outputs/plan_cost/profile_loop "
+    "--csv studies/plan_cost/records/profile_loop.csv --runs studies/plan_cost/records/runs_loop.csv",
+    "python -m pytest -q -s tests/test_agreement.py -k across_fingers  # the gaps it prints per contact state"
+    " -> records/agreement.csv; its none column: the same measure with hand_pairs=none for the cut",
+]
+
+HERE = Path(__file__).resolve().parent
+PARTS = ("collision", "constraint", "sensors", "kinematics", "physics_rest", "cost", "planner_rest")
+PHASES = ("before", "contact", "after", "all")
+#: The cut the scene ran with (``scene.planning_cuts``) and the alternatives timed beside it.
+FAST, EXACT, NONE = "across_fingers", "exact", "none"
+#: The goal of issue 32, item 2: the per sample-step cost over a trial this many times lower.
+GOAL = 1.5
+
+
+def _latency_model() -> tuple[int, int, int, float]:
+    """``preset=paper``'s latency model: samples, horizon steps, threads and the modelled per sample-step
+    cost (s), from ``conf/preset/paper.yaml`` and the scene's planning timestep (``Scene``'s default)."""
+    import inspect
+
+    from contactmpc.scene import Scene
+
+    preset = OmegaConf.load(HERE.parent.parent / "conf" / "preset" / "paper.yaml").planner
+    dt = inspect.signature(Scene.__init__).parameters["planner_timestep"].default
+    model = preset.latency_model
+    return (
+        int(preset.num_samples),
+        round(preset.horizon / dt),
+        int(model.threads),
+        float(model.sample_step_seconds),
+    )
+
+
+def _load(study) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """The study's records: every visited state's row (with ``visit``), one row per run, the agreement."""
+    rec = study.dir / "records"
+    rows = pd.concat(
+        [
+            pd.read_csv(rec / f"profile_{v}.csv").assign(visit=k)
+            for v, k in (("replay", "replay"), ("loop", "planner"))
+        ]
+    )
+    runs = pd.concat([pd.read_csv(rec / f"runs_{v}.csv") for v in ("replay", "loop")])
+    for df in (rows, runs):
+        df["label"] = df["run"].str.rsplit(" ", n=1).str[0]
+    return rows, runs, pd.read_csv(rec / "agreement.csv")
+
+
+def markdown(df: pd.DataFrame) -> str:
+    return _markdown(df).rstrip("\n")
+
+
+def _f(x: float, d: int = 1) -> str:
+    return f"{x:.{d}f}"
+
+
+def _range(values, d: int = 1, unit: str = "") -> str:
+    v = np.asarray(list(values), dtype=float)
+    return (
+        f"{v.min():.{d}f}{unit}" if np.isclose(v.min(), v.max()) else f"{v.min():.{d}f}-{v.max():.{d}f}{unit}"
+    )
+
+
+def _phases(g: pd.DataFrame):
+    """(phase, its rows) for each phase present and ``all``."""
+    for p in PHASES:
+        sel = g if p == "all" else g[g["phase"] == p]
+        if len(sel):
+            yield p, sel
+
+
+def profile_table(rows: pd.DataFrame, visit: str) -> str:
+    out = []
+    for label, g in rows[rows["visit"] == visit].groupby("label", sort=False):
+        for p, sel in _phases(g):
+            m = sel.mean(numeric_only=True)
+            out.append(
+                {"run": label, "phase": p, "states": len(sel), "plan": _f(m["plan_us"]),
+                 "rollout": _f(m["rollout_us"]), **{k: _f(m[k]) for k in PARTS},
+                 "ncon": _f(m["ncon"]), "nefc": _f(m["nefc"])}
+            )  # fmt: skip
+    return markdown(pd.DataFrame(out))
+
+
+def calibration(rows: pd.DataFrame, runs: pd.DataFrame) -> pd.DataFrame:
+    """Per run: the exact planning model's per sample-step cost over the visited states and the latency it
+    implies for ``preset=paper`` (samples x horizon steps x cost / threads)."""
+    samples, steps, threads, _ = _latency_model()
+    out = []
+    for (visit, label), g in rows.groupby(["visit", "label"], sort=False):
+        us = g[f"plan_{EXACT}_us"].to_numpy()
+        ms = us * samples * steps / threads / 1e3
+        run = runs[(runs["visit"] == visit) & (runs["label"] == label)].iloc[0]
+        out.append(
+            {"run": label, "visit": visit, "every": run["every"], "states": len(us), "median": np.median(us),
+             "min": us.min(), "max": us.max(), "mean": us.mean(), "ms": np.median(ms), "ms_min": ms.min(),
+             "ms_max": ms.max(), "load_before": run["load_before"], "load_after": run["load_after"]}
+        )  # fmt: skip
+    return pd.DataFrame(out)
+
+
+def calibration_table(cal: pd.DataFrame) -> str:
+    return markdown(
+        pd.DataFrame(
+            {
+                "run": cal["run"],
+                "visit": [f"{v} every {e:g} s" for v, e in zip(cal["visit"], cal["every"], strict=True)],
+                "states": cal["states"],
+                "median µs": cal["median"].map(_f),
+                "range µs": [_range(r) for r in zip(cal["min"], cal["max"], strict=True)],
+                "mean µs": cal["mean"].map(_f),
+                "latency ms (median)": cal["ms"].map(lambda x: _f(x, 0)),
+                "latency range ms": [_range(r, 0) for r in zip(cal["ms_min"], cal["ms_max"], strict=True)],
+                "load before / after": [
+                    f"{a:.1f} / {b:.1f}" for a, b in zip(cal["load_before"], cal["load_after"], strict=True)
+                ],
+            }
+        )
+    )
+
+
+def speedups(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per run and phase: the mean per sample-step cost of the exact, the scene's (across_fingers) and the
+    none planning models over the same states, the speed-ups (means) and the medians of per-state ratios."""
+    out = []
+    for (visit, label), g in rows.groupby(["visit", "label"], sort=False):
+        for p, sel in _phases(g):
+            ex, fa, no = (sel[c].to_numpy() for c in (f"plan_{EXACT}_us", "plan_us", f"plan_{NONE}_us"))
+            out.append(
+                {"run": label, "visit": visit, "phase": p, "states": len(sel), "exact": ex.mean(),
+                 "fast": fa.mean(), "none": no.mean(), "fast_x": ex.mean() / fa.mean(),
+                 "fast_med": np.median(ex / fa), "none_x": fa.mean() / no.mean(),
+                 "none_med": np.median(fa / no), "exact_none_x": ex.mean() / no.mean()}
+            )  # fmt: skip
+    return pd.DataFrame(out)
+
+
+def speedup_table(sp: pd.DataFrame) -> str:
+    return markdown(
+        pd.DataFrame(
+            {
+                "run": sp["run"],
+                "visit": sp["visit"],
+                "phase": sp["phase"],
+                "exact µs": sp["exact"].map(_f),
+                f"{FAST} µs": sp["fast"].map(_f),
+                f"exact / {FAST} (means; median per state)": [
+                    f"{a:.2f}x; {b:.2f}x" for a, b in zip(sp["fast_x"], sp["fast_med"], strict=True)
+                ],
+                f"{NONE} µs": sp["none"].map(_f),
+                f"{FAST} / {NONE} (means; median per state)": [
+                    f"{a:.2f}x; {b:.2f}x" for a, b in zip(sp["none_x"], sp["none_med"], strict=True)
+                ],
+            }
+        )
+    )
+
+
+def agreement(ag: pd.DataFrame) -> pd.DataFrame:
+    out = []
+    for task, g in ag.groupby("task", sort=False):
+        d_fast = g[f"{FAST}_mm"] - g[f"{EXACT}_mm"]
+        has = g[f"{NONE}_mm"].notna()
+        d_none = (g[f"{NONE}_mm"] - g[f"{EXACT}_mm"])[has]
+        out.append(
+            {"task": task, "states": len(g), "exact": g[f"{EXACT}_mm"].median(),
+             "fast_diff_med": d_fast.median(), "fast_diff_max": d_fast.abs().max(),
+             "none_states": int(has.sum()),
+             "none": g.loc[has, f"{NONE}_mm"].median() if has.any() else np.nan,
+             "none_diff_med": d_none.median() if has.any() else np.nan,
+             "none_diff_max": d_none.max() if has.any() else np.nan}
+        )  # fmt: skip
+    return pd.DataFrame(out)
+
+
+def agreement_table(agr: pd.DataFrame) -> str:
+    def mm(x: float, sign: bool = False) -> str:
+        return "—" if pd.isna(x) else (f"{x:+.3f}" if sign else f"{x:.3f}")
+
+    return markdown(
+        pd.DataFrame(
+            {
+                "task": agr["task"],
+                "contact states": agr["states"],
+                "exact: median gap mm": agr["exact"].map(mm),
+                f"{FAST} - exact: median mm": agr["fast_diff_med"].map(lambda x: mm(x, True)),
+                f"{FAST} - exact: largest abs mm": agr["fast_diff_max"].map(mm),
+                f"{NONE}: states": agr["none_states"].map(lambda n: n or "—"),
+                f"{NONE}: median gap mm": agr["none"].map(mm),
+                f"{NONE} - exact: median mm": agr["none_diff_med"].map(lambda x: mm(x, True)),
+                f"{NONE} - exact: largest mm": agr["none_diff_max"].map(lambda x: mm(x, True)),
+            }
+        )
+    )
+
+
+def trials_table(runs: pd.DataFrame, rows: pd.DataFrame) -> str:
+    t = runs[runs["trial_num_plans"].notna()]
+    last = rows[rows["visit"] == "planner"].groupby("label")["time"].max()
+    return markdown(
+        pd.DataFrame(
+            {
+                "run": t["label"],
+                "seed": t["seed"].astype(int),
+                "states (the last at)": [
+                    f"{n} ({last[lb]:.1f} s)" for n, lb in zip(t["states"], t["label"], strict=True)
+                ],
+                "completed": t["trial_completed"].astype(bool),
+                "TTF": t["trial_ttf"].map(lambda x: _f(x, 2)),
+                "finished cleanly": t["trial_finished_cleanly"].astype(bool),
+                "plans": t["trial_num_plans"].astype(int),
+                "wall µs per sample-step": t["trial_plan_us_per_sample_step"].map(_f),
+            }
+        )
+    )
+
+
+def report(study) -> str:
+    rows, runs, ag = _load(study)
+    samples, steps, threads, model_s = _latency_model()
+    model_us = model_s * 1e6
+    model_ms = samples * steps * model_us / threads / 1e3
+    loads = pd.concat([runs["load_before"], runs["load_after"]])
+    machine = sorted({f"{c} ×{int(n)}" for c, n in zip(runs["cpu"], runs["logical_cpus"], strict=True)})
+    preset = sorted({r.rsplit(" ", 1)[1] for r in rows["run"]})
+    rp = rows[rows["visit"] == "replay"]
+    lp = rows[rows["visit"] == "planner"]
+    n_states = {v: len(g) for v, g in rows.groupby("visit")}
+
+    # where the time goes (replay, all states, per run)
+    per_run = rp.groupby("label", sort=False).mean(numeric_only=True)
+    physics = (per_run["collision"] + per_run["constraint"]) / per_run["plan_us"]
+    rollout = per_run["rollout_us"] / per_run["plan_us"]
+    cost_share = per_run["cost"] / per_run["plan_us"]
+    by_phase = rp.groupby(["label", "phase"], sort=False)["plan_us"].mean().unstack()
+    contact_x = by_phase["contact"] / by_phase["before"]
+    wc = [lb for lb in per_run.index if "wrist_clearance" in lb]
+    full_twin = {
+        lb: lb.replace("wrist_clearance", "full")
+        for lb in wc
+        if lb.replace("wrist_clearance", "full") in per_run.index
+    }
+    sensor_text = "".join(
+        f" The clearance term's `geomdist` sensors make the difference in {lb}: "
+        f"{_f(per_run.loc[lb, 'sensors'])} µs of sensors per sample-step against "
+        f"{_f(per_run.loc[f, 'sensors'])} µs in {f}, the plan "
+        f"{per_run.loc[lb, 'plan_us'] / per_run.loc[f, 'plan_us']:.2f}x as dear."
+        for lb, f in full_twin.items()
+    )
+
+    # calibration
+    cal = calibration(rows, runs)
+    rc = cal[cal["visit"] == "replay"]
+    full_rc = rc[rc["run"].str.endswith(" full")]
+
+    # cuts
+    sp = speedups(rows)
+    sp_all = sp[sp["phase"] == "all"]
+    reached = sp_all[sp_all["exact_none_x"] >= GOAL]
+    best = sp.loc[sp["none_x"].idxmax()]
+
+    # agreement
+    agr = agreement(ag)
+    fast_moved = int((ag[f"{FAST}_mm"] != ag[f"{EXACT}_mm"]).sum())
+    none_paper = agr[agr["none_states"] > 0]
+    worst = ag.loc[(ag[f"{NONE}_mm"] - ag[f"{EXACT}_mm"]).idxmax()]
+
+    # replay vs the closed loop, the same run, phase by phase
+    pairs = []
+    for label, g in lp.groupby("label", sort=False):
+        r = rp[rp["label"] == label]
+        for p in ("before", "contact"):
+            a, b = g[g["phase"] == p], r[r["phase"] == p]
+            if len(a) and len(b):
+                pairs.append(
+                    (label, p, a["plan_us"].mean(), b["plan_us"].mean(), a["ncon"].mean(), b["ncon"].mean())
+                )
+    dearer = [x for x in pairs if x[2] > x[3]]
+    contact_pairs = [x for x in pairs if x[1] == "contact"]
+    lc = cal[cal["visit"] == "planner"].set_index("run")["median"]
+    rcm = rc.set_index("run")["median"]
+    both = [lb for lb in lc.index if lb in rcm.index]
+
+    out = [
+        "## What is measured",
+        "",
+        "`job=profile` (`contactmpc/jobs/profile.py`) visits a trial's states (`job.visit=replay`: the "
+        "reference replayed, a state every `job.every` s of the whole trial; `job.visit=planner`: the closed "
+        "loop's own states, the object held) and times, at each, one planning iteration on one thread (CPU "
+        "time, the median of `job.repeats`), interleaved with the same iteration on the alternatives' "
+        "planning models and with the bare rollout. It splits the rollout by MuJoCo's per-part timers (a "
+        "single-threaded `mj_step` loop over the same candidates: their shares of `mjTIMER_STEP`, applied to "
+        "the rollout's CPU time); `cost` is the cost evaluation and `planner_rest` what the plan spends "
+        "beyond the rollout and the cost (negative where the split's noise exceeds it). Every figure is µs "
+        "per sample-step (one candidate's one planning-model step). A state's phase is `before` the first "
+        "contact the reference expects, in `contact`, or `after` the last. The scene ran with "
+        f"`scene.planning_cuts={{hand_pairs: {FAST}}}`; the exact planning model (`{EXACT}`) and one without "
+        f"hand-hand contacts (`{NONE}`) were timed beside it at the same states.",
+        "",
+        f"**Measured under load.** The runs ({Fmt.listing(preset)} preset, seed "
+        f"{Fmt.listing(sorted({str(int(s)) for s in runs['seed']}))}) ran on {Fmt.listing(machine)} "
+        f"shared with other jobs: the 1-minute load average was {_range(loads)} before and after them. "
+        "Every figure is CPU time under contention, not a quiet core's: the split between parts and the "
+        "ratios between planning models timed at the same states (interleaved) hold "
+        "better than the absolute costs.",
+        "",
+        f"Records: `records/profile_replay.csv` ({n_states.get('replay', 0)} states) and "
+        f"`records/profile_loop.csv` ({n_states.get('planner', 0)} states), every visited state's row; "
+        "`records/runs_replay.csv` and `records/runs_loop.csv`, one row per run (how it visited, the "
+        "machine and its load, the visited trial's outcome); `records/agreement.csv`, plant against "
+        "planning model at each contact state (below).",
+        "",
+        "## Where a plan's time goes",
+        "",
+        "The reference replayed, mean over the visited states of each phase (µs per sample-step):",
+        "",
+        profile_table(rows, "replay"),
+        "",
+        "- **The physics is the plan.** The rollout (the planning model's physics and sensors) takes "
+        f"{_range(100 * rollout, 0)} % of the plan's time over each replayed trial, collision and the "
+        f"constraint solver alone {_range(100 * physics, 0)} %; the cost evaluation "
+        f"{_range(100 * cost_share, 0)} %." + sensor_text,
+        f"- **Contact is the dear phase**: a state in contact costs {_range(contact_x, 2)}x one before "
+        "contact (more contacts and constraint rows, `ncon` and `nefc`, in the solver).",
+        "",
+        "The closed loop (the trial's own states), the first seconds of each trial:",
+        "",
+        profile_table(rows, "planner"),
+        "",
+        "The visited closed-loop trials: each was cut short (`duration`), so its outcome is that of the "
+        "cut-short trial, not a completion check; the wall time of its plans ran under the load above and "
+        "is not comparable with the CPU-time figures:",
+        "",
+        trials_table(runs, rows),
+        "",
+        f"**The replay {'under-prices' if 2 * len(dearer) > len(pairs) else 'does not under-price'} the "
+        f"closed loop's states.** Phase by phase, the closed loop's states cost more than the replay's in "
+        f"{len(dearer)} of {len(pairs)} (run, phase) pairs; in contact "
+        + "; ".join(
+            f"{lb} {a:.1f} against {b:.1f} µs ({a / b:.2f}x, {c:.1f} against {d:.1f} contacts)"
+            for lb, _, a, b, c, d in contact_pairs
+        )
+        + f"; the loop's contact states held more contacts in {sum(c > d for *_, c, d in contact_pairs)} of "
+        f"{len(contact_pairs)}. The replay's contact states are the reference's, reached by its replayed "
+        "controls; in the loop the hand holds the object as the planner grasped it. The calibrations' "
+        "medians (below) differ likewise: "
+        + "; ".join(f"{lb} {lc[lb]:.1f} µs in the loop against {rcm[lb]:.1f} replayed" for lb in both)
+        + ". The loop visited only the first seconds (no `after` states, which are cheap in the replay), "
+        "so a calibration over the replay's states prices a trial low on both counts.",
+        "",
+        "## The latency of preset=paper, calibrated over whole trials",
+        "",
+        f"`preset=paper` models the loop's latency as {samples} samples x {steps} steps x "
+        f"{model_us:.0f} µs / {threads} threads = {model_ms:.0f} ms, the {model_us:.0f} µs from one "
+        "benchmark state. Calibrated on the exact planning model over each trial's visited states "
+        f"({samples} x {steps} x µs / {threads}):",
+        "",
+        calibration_table(cal),
+        "",
+        f"- Over the replayed trials of the paper's method the median sample-step costs "
+        f"{_range(full_rc['median'])} µs ({_range(full_rc['median'] / model_us, 1)}x the modelled "
+        f"{model_us:.0f} µs): a latency of {_range(full_rc['ms'], 0)} ms, not {model_ms:.0f} ms"
+        f" (single states {_range(full_rc[['ms_min', 'ms_max']].to_numpy().ravel(), 0)} ms); with the "
+        f"clearance term (wrist_clearance) {_range(rc.loc[rc['run'].isin(wc), 'ms'], 0)} ms. "
+        "Under load and on this CPU: the authors' threads may be faster, so the range is an upper reading "
+        "of theirs, and the figures are not yet the latency `preset=paper` uses.",
+        "",
+        "## The cuts",
+        "",
+        f"Each planning model timed at the same states, interleaved ({FAST}: no contacts between two "
+        f"links of one finger, the scene's; {NONE}: no contacts between any two links of the hand; "
+        f"{EXACT}: the planning model as it is without cuts):",
+        "",
+        speedup_table(sp),
+        "",
+        f"- **`hand_pairs: {FAST}` saves nothing**: over each run's states the exact model costs "
+        f"{_range(sp_all['fast_x'], 2)}x the cut one (means), noise around 1. The links of a finger never "
+        f"touch (the agreement below: the cut changes the object's gap at {fast_moved} of {len(ag)} contact "
+        "states), and the narrow-phase tests of the pairs it drops are lost in the noise.",
+        f"- **`hand_pairs: {NONE}` saves {_range(sp_all['none_x'], 2)}x** against `{FAST}` over each run's "
+        "states "
+        f"(the most, {best['none_x']:.2f}x, in {best['run']}'s {best['phase']} states, {best['visit']}), "
+        "but it changes what is simulated: fingers no longer press on each other or on the palm, and the "
+        "planning model's object moves away from the plant's (below).",
+        f"- **The goal of issue 32 ({GOAL:g}x lower per sample-step over each paper task, against the "
+        f"planning model without cuts) is {'not ' if len(reached) < len(sp_all) else ''}reached**: "
+        f"{len(reached)} of {len(sp_all)} runs reach it over the trial even with `{NONE}`, the cut that "
+        f"is not free (exact / {NONE}: {_range(sp_all['exact_none_x'], 2)}x). What the plan spends is "
+        "physics — collision and the constraint solver, "
+        f"{_range(100 * physics, 0)} % of it — which no cut found here removes without changing the "
+        "simulated contacts; the other "
+        "levers of the issue (solver iterations and tolerance, the clearance sensors only near the object) "
+        "are not in these records.",
+        "",
+        "## Agreement of the cuts",
+        "",
+        "Plant against planning model at each contact state of the reference (the object's gap after "
+        "0.5 s of the reference's controls, `tests/test_agreement.py`'s measure), with the exact planning "
+        f"model, with `{FAST}` and (paper tasks) with `{NONE}`:",
+        "",
+        agreement_table(agr),
+        "",
+        f"`{FAST}` moves the object at {fast_moved} of {len(ag)} contact states. `{NONE}` moves it further "
+        "from the plant at the median state by "
+        + Fmt.listing(
+            [
+                f"{x:+.2f} mm ({t})"
+                for t, x in zip(none_paper["task"], none_paper["none_diff_med"], strict=True)
+            ]
+        )
+        + f", up to {worst[f'{NONE}_mm'] - worst[f'{EXACT}_mm']:+.1f} mm ({worst['task']} at "
+        f"{worst['time']:.2f} s): not free, so `scene.planning_cuts` stays off by default.",
+        "",
+        "Not in these records: the online runs (`job=online` at slowdowns 1-3) and the map above the "
+        "modelled latency, `bash studies/plan_cost/run_online.sh`, which needs a quiet machine.",
+    ]
+    return "\n".join(out) + "\n"
