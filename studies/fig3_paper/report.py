@@ -468,7 +468,7 @@ def glance(study) -> list[dict]:
         rows.append(
             {
                 "task": f"paper {task}",
-                "configuration": f"variant=full fidelity={fid} preset=paper_32samples",
+                "configuration": f"`preset=paper_32samples variant=full fidelity={fid}`",
                 "completed": f"{k}/{n}",
                 "finished cleanly": f"{c}/{n}",
                 "median CPU-s per trial": f"{cpu:.0f}",
