@@ -31,7 +31,7 @@ from hydra.types import RunMode  # noqa: E402
 from hydra.utils import get_method, instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
-from contactmpc.config import Config, check_config, member_schemas  # noqa: E402
+from contactmpc.config import Config, check_config, member_schemas, schema_for  # noqa: E402
 from contactmpc.jobs.trial import failure_status  # noqa: E402
 from contactmpc.records import RECORD_NAME, one_line  # noqa: E402
 from contactmpc.runs import RESUME, job_lock, resume_decision  # noqa: E402
@@ -46,6 +46,9 @@ LABELS = (
     "sampler",
     "planner",
     "variant",
+    "wrist",
+    "shaping",
+    "release",
     "preset",
     "experiment",
     "perturbation",
@@ -76,6 +79,8 @@ def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:
 SCHEMAS = (
     (None, "config_schema", Config),
     *member_schemas(conf_members()),
+    # a node inside a member: the release group's sampler.release (conf/release/reset.yaml lists it)
+    ("release", "/release_schedule_schema", schema_for("contactmpc.control.release.ReleaseSchedule")),
 )
 
 
