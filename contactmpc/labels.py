@@ -103,10 +103,11 @@ OLD_RELEASE_KEYS: dict[str, str] = {
 """The sampler's release options before they were one object (``sampler.release_pause``), by their
 name in :class:`~contactmpc.control.release.ReleaseSchedule` (``sampler.release.pause``)."""
 
-_RELEASE_DEFAULTS: dict[str, Any] = {
+RELEASE_DEFAULTS: dict[str, Any] = {
     p.name: list(p.default) if isinstance(p.default, tuple) else p.default
     for p in inspect.signature(ReleaseSchedule).parameters.values()
 }
+"""The release schedule's options at their defaults (the paper's method), as a config holds them."""
 
 
 def upgrade_config(config: Any) -> Any:
@@ -127,7 +128,7 @@ def upgrade_config(config: Any) -> Any:
         return out
     if out.get("release") is not None:
         raise ValueError("a config holds both sampler.release and the old sampler.release_* options")
-    options = {**_RELEASE_DEFAULTS, **{OLD_RELEASE_KEYS[k]: v for k, v in old.items()}}
+    options = {**RELEASE_DEFAULTS, **{OLD_RELEASE_KEYS[k]: v for k, v in old.items()}}
     options = {k: list(v) if isinstance(v, tuple) else v for k, v in options.items()}
-    out["release"] = None if options == _RELEASE_DEFAULTS else {"_target_": RELEASE_TARGET, **options}
+    out["release"] = None if options == RELEASE_DEFAULTS else {"_target_": RELEASE_TARGET, **options}
     return out
