@@ -36,11 +36,11 @@ RELEASE_IMAGE = "analysis/images/release_paper.png"
 #: term (variant=wrist_clearance, results/stapler_clearance; at the paper point in operating_point).
 POINT_DIRS = ("operating_point", "fig3_paper", "stapler_wrist_32samples", "stapler_clearance")
 POINT_FILTER = {"task": "apple,bottle,stapler", "variant": "full,wrist_acquire,wrist_clearance"}
-#: The end of the paper tasks: fig3_paper's full method (the "before") beside variant=release_reset (the
-#: walked-in grip dropped at the last contact), variant=release (that, the release term, opening, waiting)
-#: variant=release_scheduled (release with no sampling after the last contact), in results/release, and
-#: variant=release_backoff (scheduled, open to the flat hand, the wrist backed off), in
-#: results/release_backoff.
+#: The end of the paper tasks: fig3_paper's full method (the "before") beside the methods release_reset
+#: (release=reset: the walked-in grip dropped at the last contact), release (release=open: that, the
+#: release term, opening, waiting), release_scheduled (release=scheduled: no sampling after the last
+#: contact), in results/release, and release_backoff (release=backoff: scheduled, open to the flat hand,
+#: the wrist backed off), in results/release_backoff (method names: contactmpc.labels.method_name).
 RELEASE_DIRS = ("fig3_paper", "release_reset", "release", "release_backoff")
 RELEASE_FILTER = {
     "task": "apple,bottle",
@@ -116,12 +116,13 @@ def release_lite_block(root: Path = RESULTS) -> str:
 
 
 def release_flat_block(root: Path = RESULTS) -> str:
-    """Design 8 (``variant=release_flat``: design 6 opening to the flat hand) beside the full method and
+    """Design 8 (``release=flat``: design 6 opening to the flat hand) beside the full method and
     design 7 on the same seeds: the paper apple and bottle (``results/fig3_paper``,
     ``results/release_backoff``) and the synthetic doorknob (``results/release_lite``). Design 8's
     records (``results/release_flat``, ``results/release_flat_lite``) were made as
-    ``variant=release_backoff sampler.release_backoff=0``, which behaves as ``variant=release_flat``
-    (with no back-off its window is unused): they are shown as ``release_flat``."""
+    ``variant=release_backoff sampler.release_backoff=0`` (now ``release=backoff
+    sampler.release.backoff=0``), which behaves as ``release=flat`` (with no back-off its window is
+    unused): they are shown as ``release_flat``."""
     flat = paper_fig3.load(root / "release_flat", root / "release_flat_lite").assign(variant="release_flat")
     paper = select(
         paper_fig3.load(*_dirs(("fig3_paper", "release_backoff"), root)),

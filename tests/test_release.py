@@ -254,7 +254,7 @@ def test_analysis_reads_records_with_and_without_the_new_fields(tmp_path):
     assert "| 1/2 (2 unrecorded) |" in point_markdown(table, table.iloc[:0])  # old records: not 0
 
 
-# ------------------------------------------------------------------ the release phase (variant=release)
+# ------------------------------------------------------------------ the release phase (release=open)
 def _letting_go(scene, let_go_frame: int = 13):
     """tests.helpers.static_reference with every contact ended at ``let_go_frame`` (of 26, 1 s)."""
     from tests.helpers import static_reference

@@ -216,3 +216,31 @@ def first_job(experiment: str) -> tuple[list[str], str]:
 @pytest.mark.parametrize("experiment", EXPERIMENTS)
 def test_every_experiment_s_first_job_plans(experiment, reference_files, tmp_path):
     _plans_once(*first_job(experiment), reference_files, tmp_path)
+
+
+def test_the_analysis_groups_an_old_record_with_a_new_one_of_the_same_method(tmp_path):
+    """An old record (``variant: release_backoff``, flat release keys) and a new one (``variant: full``,
+    ``release: backoff``) are one method, one condition; of the same seed, one trial (the newer kept)."""
+    from analysis.aggregate import RecordWarning, load_records
+    from contactmpc.records import write_json
+
+    base = _config("task=apple", "variant=full")
+    records = {
+        "old0": ({"variant": "release_backoff"}, _as_before(base, OLD["release_backoff"]), 0),
+        "old1": ({"variant": "release_backoff"}, _as_before(base, OLD["release_backoff"]), 1),
+        "new1": (
+            {"variant": "full", "release": "backoff"},
+            _config("task=apple", *EXPECTED["release_backoff"]),
+            1,
+        ),
+    }
+    for i, (name, (found, config, seed)) in enumerate(records.items()):
+        config = {**config, "seed": seed}
+        record = {"task": "apple", **found, "seed": seed, "status": "ok", "ttf": 1.0, "config": config}
+        write_json(tmp_path / name / "trial.json", record)
+        os.utime(tmp_path / name / "trial.json", (1000 + i, 1000 + i))
+    with pytest.warns(RecordWarning, match="recorded 2 times: keeping the newest, .*new1"):
+        df = load_records(tmp_path)
+    assert sorted(df["seed"]) == [0, 1]
+    assert set(df["variant"]) == {"release_backoff"} and set(df["release"]) == {"backoff"}
+    assert set(df["condition"]) == {""}
