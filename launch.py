@@ -79,8 +79,8 @@ def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:
 SCHEMAS = (
     (None, "config_schema", Config),
     *member_schemas(conf_members()),
-    # a node inside a member: the release group's sampler.release (conf/release/reset.yaml lists it)
-    ("release", "/release_schedule_schema", schema_for("contactmpc.control.release.ReleaseSchedule")),
+    # a node inside the members of a global group: sampler.release (conf/release/reset.yaml lists it)
+    (None, "/release_schedule_schema", schema_for("contactmpc.control.release.ReleaseSchedule")),
 )
 
 

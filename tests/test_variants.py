@@ -244,3 +244,17 @@ def test_the_analysis_groups_an_old_record_with_a_new_one_of_the_same_method(tmp
     assert sorted(df["seed"]) == [0, 1]
     assert set(df["variant"]) == {"release_backoff"} and set(df["release"]) == {"backoff"}
     assert set(df["condition"]) == {""}
+
+
+def test_the_release_node_has_a_schema():
+    """sampler.release from the release group holds every option of ReleaseSchedule, and a misspelt
+    one fails at compose time."""
+    from hydra.errors import ConfigCompositionException
+
+    from contactmpc.control.release import ReleaseSchedule
+
+    node = _config("task=apple", "release=reset")["sampler"]["release"]
+    assert node == {"_target_": labels.RELEASE_TARGET, **RELEASE_DEFAULTS, "reset": True}
+    assert isinstance(instantiate(node), ReleaseSchedule)
+    with pytest.raises(ConfigCompositionException, match="sampler.release.paus"):
+        compose_config(["release=open", "sampler.release.paus=1.0"])
