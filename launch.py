@@ -31,7 +31,7 @@ from hydra.types import RunMode  # noqa: E402
 from hydra.utils import get_method, instantiate  # noqa: E402
 from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
-from contactmpc.config import Config, check_config, member_schemas, split_inputs  # noqa: E402
+from contactmpc.config import Config, check_config, member_schemas, schema_for, split_inputs  # noqa: E402
 from contactmpc.jobs.common import failure_status  # noqa: E402
 from contactmpc.records import RECORD_NAME, one_line  # noqa: E402
 from contactmpc.runs import RESUME, job_lock, resume_decision  # noqa: E402
@@ -47,6 +47,9 @@ LABELS = (
     "planner",
     "variant",
     "fidelity",
+    "wrist",
+    "shaping",
+    "release",
     "preset",
     "experiment",
     "perturbation",
@@ -93,6 +96,8 @@ def conf_members(conf_dir: Path = CONF_DIR) -> list[tuple[str, str, str]]:
 SCHEMAS = (
     (None, "config_schema", Config),
     *member_schemas(conf_members()),
+    # a node inside the members of a global group: sampler.release (conf/release/reset.yaml lists it)
+    (None, "/release_schedule_schema", schema_for("contactmpc.control.release.ReleaseSchedule")),
 )
 
 

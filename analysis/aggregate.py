@@ -33,6 +33,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis._cli import run, sweep_parser
+from contactmpc.labels import GROUPS, method_labels, method_name, upgrade_config
 from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME, one_line, option_default, with_defaults
 
 SWEEP_MARKER = "multirun.yaml"  # Hydra writes it into the root of a multirun sweep
@@ -76,6 +77,9 @@ COLUMN_TYPES: dict[str, str | None] = {
     "task": None,
     "variant": None,
     "condition": None,
+    "wrist": None,
+    "shaping": None,
+    "release": None,
     "hand": None,
     "cost": None,
     "sampler": None,
@@ -236,7 +240,8 @@ def read_record(path: str | Path) -> dict:
 
 
 def identity_config(config: dict) -> dict[str, object]:
-    """The part of a record's ``config`` that makes the trial what it is, flattened to dotted keys.
+    """The part of a record's ``config`` that makes the trial what it is, flattened to dotted keys
+    (today's keys: :func:`contactmpc.labels.upgrade_config`).
 
     Keys under :data:`VOLATILE_CONFIG_KEYS` and :data:`COPIED_CONFIG_KEYS` are left out; a list is one
     value (as a tuple, so it can be compared and hashed).
@@ -254,7 +259,7 @@ def identity_config(config: dict) -> dict[str, object]:
             else:
                 out[key] = _hashable(v)
 
-    walk(config, "")
+    walk(upgrade_config(config), "")
     return out
 
 
@@ -312,18 +317,32 @@ def load_records(*dirs: str | Path, dedupe: bool = True) -> pd.DataFrame:
     if _CONFIG not in df:
         df[_CONFIG] = pd.Series([None] * len(df), dtype=object)
     if len(df):
-        # the record's own variant label (variant=wrist, wrist_acquire, robust, ...) wins; without one,
-        # the variant is told from the planner, cost and sampler choices
-        labels = df["variant"] if "variant" in df else pd.Series([None] * len(df), index=df.index)
+        # the method from the record's labels: its variant label (variant=robust, wrist_clearance, or an
+        # old record's wrist_acquire, release_flat, ...) and groups (wrist, shaping, release), read
+        # through contactmpc.labels, so an old record and a new one of the same method get the same
+        # name; without a variant label, the variant is told from the planner, cost and sampler choices
         derived = [variant_name(*x) for x in zip(df["planner"], df["cost"], df["sampler"], strict=True)]
-        pairs = zip(labels, derived, strict=True)
-        df["variant"] = [label if isinstance(label, str) and label else name for label, name in pairs]
+        methods = []
+        for labels, name in zip(_labels(df), derived, strict=True):
+            found = method_labels(labels)
+            found["variant"] = found["variant"] or name
+            methods.append(found)
+        for key in ("variant", *GROUPS):
+            df[key] = [m[key] for m in methods]
+        df["variant"] = [method_name(m) for m in methods]
     df = df[list(COLUMNS) + [c for c in df.columns if c not in COLUMNS]]
     df = _coerce(df)
     if dedupe and len(df):
         df = drop_duplicates(df)
     df = add_conditions(df)
     return sort_table(df)
+
+
+def _labels(df: pd.DataFrame) -> list[dict]:
+    """Each row's method labels as its record has them (``None`` where it has none)."""
+    columns = [c for c in ("variant", *GROUPS) if c in df]
+    rows = df[columns].astype(object).to_dict("records")
+    return [{k: v if isinstance(v, str) and v else None for k, v in row.items()} for row in rows]
 
 
 def _identity(df: pd.DataFrame) -> pd.Series:

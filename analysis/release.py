@@ -13,7 +13,8 @@ Command line::
         [--fidelity paper] [--out FILE.md]
 
 ``--task``, ``--variant`` and ``--fidelity`` keep only those rows (comma-separated; the task without its
-``paper_`` prefix), so a variant's sweep can be read beside another sweep's records of the variant it
+``paper_`` prefix; a variant by its method name, :func:`contactmpc.labels.method_name`: ``release_reset``
+for ``release=reset``), so a variant's sweep can be read beside another sweep's records of the variant it
 is compared with (e.g. ``results/fig3_paper``'s ``full``).
 """
 

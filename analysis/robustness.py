@@ -1,10 +1,11 @@
 """Success under mismatch: completion and TTF against the size of a plant-model error, per task and method.
 
-Reads the records of a sweep such as ``experiment=robustness_lite``: each record's ``variant`` label (the
-method: ``replay``, ``full``, ``joint_space``, ``wrist``, ``robust``) and its drawn ``perturbation``. The
-error on the x axis (``--axis``) is the object's initial offset (``offset``: the offset's length, rounded
-to the millimetre; ``experiment=robustness_lite``) or its mass error (``mass``: the drawn mass factor
-minus one, rounded to a tenth of a per cent; ``experiment=robustness_mass_lite``). Per task, method and
+Reads the records of a sweep such as ``experiment=robustness``: each record's method (its ``variant``
+label and groups, named by :func:`contactmpc.labels.method_name`: ``replay``, ``full``, ``joint_space``,
+``wrist``, ``robust``) and its drawn ``perturbation``. The error on the x axis (``--axis``) is the object's
+initial offset (``offset``: the offset's length, rounded to the millimetre; ``experiment=robustness``) or
+its mass error (``mass``: the drawn mass factor minus one, rounded to a tenth of a per cent;
+``experiment=robustness_mass``). Per task, method and
 error it reports the success rate (share of trials completed) and the mean TTF, each with a bootstrap
 90 % confidence interval over the trials, how many trials reached each milestone, and per task and
 method the largest error at which at least 80 % of the trials succeed.

@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from contactmpc.labels import upgrade_config
 from contactmpc.records import NOT_THE_TRIAL, RECORD_NAME, with_defaults
 
 FINISHED = ("ok", "diverged")
@@ -92,12 +93,13 @@ def config_differences(stored: dict | None, new: dict) -> list[str]:
 
     Keys in :data:`NOT_THE_TRIAL` are ignored; ``_target_`` keys come first, then the others in order.
     A key one config lacks reads as its option's default (:func:`~contactmpc.records.option_default`:
-    a record made before the option existed is the same trial as one with the option at its default).
-    A record without a config differs from every config.
+    a record made before the option existed is the same trial as one with the option at its default),
+    and a key since renamed by its name now (:func:`~contactmpc.labels.upgrade_config`). A record
+    without a config differs from every config.
     """
     if not isinstance(stored, dict):
         return ["config: not in the record"]
-    a, b = _flatten(_plain(stored)), _flatten(_plain(new))
+    a, b = _flatten(_plain(upgrade_config(stored))), _flatten(_plain(upgrade_config(new)))
 
     def compared(key: str) -> bool:
         return not any(key == k or key.startswith(k + ".") for k in NOT_THE_TRIAL)

@@ -148,16 +148,16 @@ def test_a_record_made_before_an_option_existed_is_the_same_trial_at_the_option_
     where it does not (resume, and the analysis's condition columns)."""
     from analysis.aggregate import RecordWarning, load_records
 
-    new = _config("task=apple")
+    new = _config("task=apple", "release=reset")
     old = json.loads(json.dumps(new))
-    for name in ("release_backoff", "release_backoff_window", "release_open_to"):
-        del old["sampler"][name], old["job"]["sampler"][name]  # the trial job's copy too
-    assert new["sampler"]["release_backoff_window"] == [0.5, 1.5]  # a tuple default, as JSON holds it
+    for name in ("backoff", "backoff_window", "open_to"):
+        del old["sampler"]["release"][name], old["job"]["sampler"]["release"][name]  # the job's copy too
+    assert new["sampler"]["release"]["backoff_window"] == [0.5, 1.5]  # a tuple default, as JSON holds it
     assert runs.config_differences(old, new) == []
-    backed = _config("task=apple", "sampler.release_backoff=0.08")
+    backed = _config("task=apple", "release=reset", "sampler.release.backoff=0.08")
     assert runs.config_differences(old, backed) == [
-        "job.sampler.release_backoff: 0.08 != 0.0",
-        "sampler.release_backoff: 0.08 != 0.0",
+        "job.sampler.release.backoff: 0.08 != 0.0",
+        "sampler.release.backoff: 0.08 != 0.0",
     ]
     # a key that is no option of the target at its parent still differs
     assert runs.config_differences({**old, "extra": 1}, new) == ["extra: <absent> != 1"]
@@ -167,7 +167,7 @@ def test_a_record_made_before_an_option_existed_is_the_same_trial_at_the_option_
         os.utime(tmp_path / name / "trial.json", (1000 + i, 1000 + i))
     with pytest.warns(RecordWarning, match="recorded 2 times: keeping the newest, .*new"):
         df = load_records(tmp_path)  # old and new are one trial: the newer kept
-    assert sorted(df["condition"]) == ["sampler.release_backoff=0.0", "sampler.release_backoff=0.08"]
+    assert sorted(df["condition"]) == ["sampler.release.backoff=0.0", "sampler.release.backoff=0.08"]
 
 
 def test_resume_decision(tmp_path):

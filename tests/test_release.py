@@ -20,6 +20,7 @@ from analysis.paper_fig3 import fidelities
 from analysis.paper_fig3 import load as fig3_load
 from analysis.paper_fig3 import markdown as fig3_markdown
 from analysis.report import markdown_report, summary_table
+from contactmpc.control.release import ReleaseSchedule
 from contactmpc.jobs.trial import summarize
 from contactmpc.metrics import errors_by_window
 from contactmpc.tasks import AppleTask, DoorknobTask
@@ -253,7 +254,7 @@ def test_analysis_reads_records_with_and_without_the_new_fields(tmp_path):
     assert "| 1/2 (2 unrecorded) |" in point_markdown(table, table.iloc[:0])  # old records: not 0
 
 
-# ------------------------------------------------------------------ the release phase (variant=release)
+# ------------------------------------------------------------------ the release phase (release=open)
 def _letting_go(scene, let_go_frame: int = 13):
     """tests.helpers.static_reference with every contact ended at ``let_go_frame`` (of 26, 1 s)."""
     from tests.helpers import static_reference
@@ -304,7 +305,7 @@ def test_the_release_term_counts_hand_object_contacts_once_the_reference_has_let
 
 
 def test_the_wrist_is_sampled_around_the_last_contact_only_where_the_reference_lets_go(scene_for):
-    """sampler.release_window: wrist noise on the control points around the reference's last expected
+    """sampler.release.window: wrist noise on the control points around the reference's last expected
     contact (and, with root_window too, around the first); none where the reference ends held."""
     from contactmpc.control.cost import TrackingCost
     from contactmpc.control.problem import Problem
@@ -314,8 +315,9 @@ def test_the_wrist_is_sampled_around_the_last_contact_only_where_the_reference_l
     scene = scene_for("apple")
     num_root = scene.hand.num_root
 
-    def wrist_sampled(ref, **windows):
-        space = JointSplineSpace(0.2, root_sigma2=1e-4, **windows)
+    def wrist_sampled(ref, root_window=None, release_window=None):
+        release = ReleaseSchedule(window=release_window)
+        space = JointSplineSpace(0.2, root_sigma2=1e-4, root_window=root_window, release=release)
         problem = Problem.build(scene, ref, space, TrackingCost(), horizon=0.2, num_control_points=12)
         std = np.broadcast_to(problem.noise_std, (12, problem.theta0.shape[1]))
         assert np.all(std[:, num_root:] > 0)  # the fingers everywhere
@@ -331,8 +333,8 @@ def test_the_wrist_is_sampled_around_the_last_contact_only_where_the_reference_l
     assert both[problem.spline.window_indices(0.0, 0.1)].all() and (both >= sampled).all()
     held, _ = wrist_sampled(static_reference(scene, duration=1.0, frames=26), release_window=(-0.1, 0.1))
     assert not held.any()  # the reference never lets go: no release to sample the wrist for
-    with pytest.raises(ValueError, match="release_window"):
-        JointSplineSpace(0.2, release_window=(1.0, 1.0))
+    with pytest.raises(ValueError, match="sampler.release.window"):
+        ReleaseSchedule(window=(1.0, 1.0))
 
 
 def test_release_table_counts_the_end_of_each_variant(tmp_path):
@@ -376,9 +378,10 @@ def test_release_table_counts_the_end_of_each_variant(tmp_path):
 
 
 def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
-    """sampler.release_pause: the root curves stop at the last contact for the pause and go on that much
+    """sampler.release.pause: the root curves stop at the last contact for the pause and go on that much
     later; the fingers keep the reference's schedule; no pause where the reference ends held."""
-    from contactmpc.control.samplers import JointSplineSpace, paused
+    from contactmpc.control.release import paused
+    from contactmpc.control.samplers import JointSplineSpace
     from contactmpc.reference.bspline import UniformBSpline
 
     t = np.linspace(0.0, 10.0, 101)
@@ -390,7 +393,7 @@ def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
     qpos = np.concatenate([np.tile(x[:, :1], (1, 6)), np.sin(t)[:, None] * np.ones((1, 4))], axis=1)
     spline = UniformBSpline(40, (0.0, 10.0))
     ranges = np.tile([-100.0, 100.0], (10, 1))
-    space = JointSplineSpace(0.2, release_pause=1.5)
+    space = JointSplineSpace(0.2, release=ReleaseSchedule(pause=1.5))
     held = space.fit(spline, t, qpos, ranges, 6)  # no last contact: the reference as it is
     np.testing.assert_allclose(held, JointSplineSpace(0.2).fit(spline, t, qpos, ranges, 6))
     theta = space.fit(spline, t, qpos, ranges, 6, last_contact=4.0)
@@ -403,9 +406,9 @@ def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
 
 
 def test_the_nominal_fingers_open_to_the_first_pose_after_the_last_contact():
-    """sampler.release_open: from the last contact the fingers go linearly back to the reference's first
+    """sampler.release.open: from the last contact the fingers go linearly back to the reference's first
     pose within the given time and stay there; before it, the reference's fingers."""
-    from contactmpc.control.samplers import opened
+    from contactmpc.control.release import opened
 
     t = np.linspace(0.0, 10.0, 101)
     x = np.stack([1.0 + t, np.cos(t)], axis=-1)
@@ -416,7 +419,7 @@ def test_the_nominal_fingers_open_to_the_first_pose_after_the_last_contact():
 
 
 def test_opening_the_nominal_fingers_keeps_the_reference_s_pca():
-    """With release_open the PC space is still fitted to the reference's own finger curves (a PCA that
+    """With release.open the PC space is still fitted to the reference's own finger curves (a PCA that
     also saw the opened nominal would change the sampling directions over the whole trial); only the
     nominal's control points after the last contact move."""
     from contactmpc.control.samplers import PCASplineSpace
@@ -427,7 +430,7 @@ def test_opening_the_nominal_fingers_keeps_the_reference_s_pca():
     fingers = np.sin(np.outer(t, rng.uniform(0.2, 1.0, 16)) + rng.uniform(0, 3, 16))
     qpos = np.concatenate([np.zeros((len(t), 6)), fingers], axis=1)
     spline, ranges = UniformBSpline(30, (0.0, 10.0)), np.tile([-10.0, 10.0], (22, 1))
-    plain, opening = PCASplineSpace(0.2), PCASplineSpace(0.2, release_open=1.0)
+    plain, opening = PCASplineSpace(0.2), PCASplineSpace(0.2, release=ReleaseSchedule(open=1.0))
     a = plain.fit(spline, t, qpos, ranges, 6)
     b = opening.fit(spline, t, qpos, ranges, 6, last_contact=6.0)
     np.testing.assert_allclose(opening.pca.components, plain.pca.components)
@@ -441,9 +444,9 @@ def test_opening_the_nominal_fingers_keeps_the_reference_s_pca():
 def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_when_the_reference_lets_go(
     scene_for,
 ):
-    """sampler.release_reset: at the first plan at or after the reference's last expected contact, the
+    """sampler.release.reset: at the first plan at or after the reference's last expected contact, the
     committed control points whose support meets the rest of the trial go back to the release nominal
-    (theta0, or the opened one with release_open), once; a plan before it, a space without it, or a
+    (theta0, or the opened one with release.open), once; a plan before it, a space without it, or a
     reference that ends held leave them as they are.
     Real rollouts (one sample: the nominal, so what is committed is what the plan started from)."""
     import mujoco
@@ -462,7 +465,7 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
 
     def walked(reference, reset: bool):
         """A planner bound to the reference whose committed points walked 0.3 from the nominal."""
-        space = PCASplineSpace(0.2, release_reset=reset)
+        space = PCASplineSpace(0.2, release=ReleaseSchedule(reset=reset))
         problem = Problem.build(scene, reference, space, TrackingCost(), horizon=0.2, num_control_points=12)
         planner = PredictiveSampling(num_samples=1, horizon=0.2, nthread=1)
         planner.bind(problem)
@@ -488,7 +491,7 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
     planner.close()
     # with an opening nominal: the reference's own until the last contact (bit for bit: the trial is the
     # full method's until then), the opened one from the reset on
-    opening = PCASplineSpace(0.2, release_reset=True, release_open=0.1)
+    opening = PCASplineSpace(0.2, release=ReleaseSchedule(reset=True, open=0.1))
     problem = Problem.build(scene, ref, opening, TrackingCost(), horizon=0.2, num_control_points=12)
     plain = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), horizon=0.2, num_control_points=12)
     np.testing.assert_array_equal(problem.theta0, plain.theta0)
@@ -506,7 +509,7 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
 
 
 def test_release_noise_scales_the_sampling_after_the_last_contact_only():
-    """sampler.release_noise: the rows of the control points whose support lies after the last expected
+    """sampler.release.noise: the rows of the control points whose support lies after the last expected
     contact get that fraction of the noise; the others keep theirs; no change where the reference ends
     held (no last contact), and the root-window masking still applies."""
     from contactmpc.control.samplers import JointSplineSpace
@@ -516,7 +519,7 @@ def test_release_noise_scales_the_sampling_after_the_last_contact_only():
     t = np.linspace(0.0, 10.0, 101)
     qpos = np.concatenate([np.zeros((101, 6)), np.sin(t)[:, None] * np.ones((1, 4))], axis=1)
     ranges = np.tile([-10.0, 10.0], (10, 1))
-    space = JointSplineSpace(0.04, root_sigma2=1e-4, release_noise=0.0)
+    space = JointSplineSpace(0.04, root_sigma2=1e-4, release=ReleaseSchedule(noise=0.0))
     space.fit(spline, t, qpos, ranges, 6, last_contact=6.0)
     std = space.point_noise_std(spline, first_contact=1.0, last_contact=6.0)
     after = spline.knots[:20] >= 6.0
@@ -525,21 +528,22 @@ def test_release_noise_scales_the_sampling_after_the_last_contact_only():
     np.testing.assert_allclose(std[~after, 6:], 0.2)
     np.testing.assert_allclose(std[~after, :6], 0.01)
     np.testing.assert_array_equal(space.point_noise_std(spline, 1.0, None), space.noise_std)  # ends held
-    half = JointSplineSpace(0.04, root_window=(0.0, 1.0), release_noise=0.5)
+    half = JointSplineSpace(0.04, root_window=(0.0, 1.0), release=ReleaseSchedule(noise=0.5))
     half.fit(spline, t, qpos, ranges, 6, last_contact=6.0)
     std = half.point_noise_std(spline, first_contact=1.0, last_contact=6.0)
     np.testing.assert_allclose(std[after, 6:], 0.1)
     assert not std[after, :6].any()  # the wrist, outside its window, stays unsampled
-    with pytest.raises(ValueError, match="release_noise"):
-        JointSplineSpace(0.04, release_noise=-1.0)
+    with pytest.raises(ValueError, match="ReleaseSchedule.noise"):
+        ReleaseSchedule(noise=-1.0)
 
 
 def test_the_nominal_wrist_backs_off_and_the_fingers_open_to_the_flat_hand():
-    """sampler.release_backoff: the wrist slides shift by ``release_backoff`` x the release direction,
-    growing over ``release_backoff_window`` after the last contact and kept; its hinges and everything
-    before the window are the reference's. sampler.release_open_to=flat: the fingers open to 0 within
+    """sampler.release.backoff: the wrist slides shift by ``backoff`` x the release direction,
+    growing over ``backoff_window`` after the last contact and kept; its hinges and everything
+    before the window are the reference's. sampler.release.open_to=flat: the fingers open to 0 within
     their ranges. No change where the reference ends held; a back-off without a direction is refused."""
-    from contactmpc.control.samplers import JointSplineSpace, backed_off
+    from contactmpc.control.release import backed_off
+    from contactmpc.control.samplers import JointSplineSpace
     from contactmpc.reference.bspline import UniformBSpline
 
     t = np.linspace(0.0, 10.0, 101)
@@ -555,7 +559,7 @@ def test_the_nominal_wrist_backs_off_and_the_fingers_open_to_the_flat_hand():
     ranges[6] = [0.2, 1.0]  # a joint whose range excludes 0 (the Allegro thumb's first): opens to 0.2
     direction = np.array([0.0, 0.6, 0.8])
     space = JointSplineSpace(
-        0.2, release_open=1.0, release_open_to="flat", release_backoff=0.1, release_backoff_window=(0.5, 1.5)
+        0.2, release=ReleaseSchedule(open=1.0, open_to="flat", backoff=0.1, backoff_window=(0.5, 1.5))
     )
     plain = JointSplineSpace(0.2).fit(spline, t, qpos, ranges, 6)
     np.testing.assert_allclose(space.fit(spline, t, qpos, ranges, 6), plain)  # ends held: as it is
@@ -568,8 +572,8 @@ def test_the_nominal_wrist_backs_off_and_the_fingers_open_to_the_flat_hand():
     np.testing.assert_allclose(curve[late, 6:], np.tile([0.2, 0.0, 0.0, 0.0], (late.sum(), 1)), atol=0.01)
     with pytest.raises(ValueError, match="release direction"):
         space.fit(spline, t, qpos, ranges, 6, last_contact=4.0)
-    with pytest.raises(ValueError, match="release_open_to"):
-        JointSplineSpace(0.2, release_open_to="closed")
+    with pytest.raises(ValueError, match="ReleaseSchedule.open_to"):
+        ReleaseSchedule(open_to="closed")
 
 
 def test_the_release_direction_points_from_the_expected_contacts_to_the_palm(scene_for):
@@ -585,7 +589,7 @@ def test_the_release_direction_points_from_the_expected_contacts_to_the_palm(sce
 
     scene = scene_for("apple")
     ref = _letting_go(scene)
-    space = PCASplineSpace(0.2, release_reset=True, release_backoff=0.05, release_backoff_window=(0.0, 0.1))
+    space = PCASplineSpace(0.2, release=ReleaseSchedule(reset=True, backoff=0.05, backoff_window=(0.0, 0.1)))
     problem = Problem.build(scene, ref, space, TrackingCost(), horizon=0.2, num_control_points=12)
     plain = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), horizon=0.2, num_control_points=12)
     np.testing.assert_array_equal(problem.theta0, plain.theta0)

@@ -35,12 +35,12 @@ class Problem:
         theta0: (M, d) the reference's own control points in the space's coordinates.
         duration: control time a trial simulates (s).
         noise_std: (d,) the sampling noise per column of ``theta``, or (M, d) per control point (a
-            space with a ``root_window`` or ``release_window``); ``None``: the space's ``noise_std``.
+            space with a ``root_window`` or a release ``window``); ``None``: the space's ``noise_std``.
         last_contact: control time (s) of the reference's last expected contact where it lets go
             (``None``: it ends held, or expects none).
         release_theta: (M, d) the nominal the planner's committed control points go back to at the
-            last contact (a space with ``release_reset``: its release nominal, the reference's own
-            where it sets no ``release_open`` / ``release_pause``); ``theta0`` is then the reference's
+            last contact (a release schedule with ``reset``: its release nominal, the reference's own
+            where it sets no ``open`` / ``pause`` / ``backoff``); ``theta0`` is then the reference's
             own, so that the release nominal changes nothing before the last contact. ``None``: no
             reset.
     """
@@ -94,7 +94,7 @@ class Problem:
         lets_go = expected.size and expected[-1] < len(track.contact_active) - 1
         last_contact = float(expected[-1] * track.dt) if lets_go else None
         direction = None
-        if space.release_backoff > 0.0 and last_contact is not None:
+        if space.release.backoff > 0.0 and last_contact is not None:
             direction = release_direction(scene, track, int(expected[-1]))
 
         def fit(until: float | None) -> np.ndarray:
@@ -111,7 +111,7 @@ class Problem:
 
         theta0 = fit(last_contact)
         release_theta = None
-        if space.release_reset and last_contact is not None:
+        if space.release.reset and last_contact is not None:
             # the release nominal takes over at the last contact; until then the reference's own
             release_theta, theta0 = theta0, fit(None)
         cost.bind(scene, track, reference)

@@ -21,80 +21,10 @@ from typing import Annotated
 
 import numpy as np
 
+from contactmpc.control.release import ReleaseSchedule, time_window
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis, PCACurves
-from contactmpc.validate import ConfigError, Ge, OneOf, checked
-
-
-def _window(name: str, window: tuple[float, float] | None) -> tuple[float, float] | None:
-    """``(start, end)`` as floats, or ``None``; refused unless start < end."""
-    if window is None:
-        return None
-    if len(window) != 2 or not window[0] < window[1]:
-        raise ConfigError(f"sampler.{name} must be (start, end) with start < end, got {window}")
-    return float(window[0]), float(window[1])
-
-
-def paused(times: np.ndarray, curves: np.ndarray, at: float, pause: float) -> np.ndarray:
-    """Curves that stop at time ``at`` for ``pause`` seconds and then go on as before, that much later.
-
-    Args:
-        times: (T,) increasing sample times (s).
-        curves: (T, k) values at those times.
-        at: when to stop (s).
-        pause: how long (s).
-
-    Returns:
-        (T, k): ``curves(t)`` before ``at``, ``curves(at)`` on ``[at, at + pause]``, ``curves(t - pause)``
-        after (linear interpolation between samples); the last ``pause`` seconds of the curves are cut.
-    """
-    times = np.asarray(times, float)
-    source = np.where(times <= at, times, np.maximum(at, times - pause))
-    return np.stack([np.interp(source, times, c) for c in np.asarray(curves, float).T], axis=-1)
-
-
-def opened(
-    times: np.ndarray, curves: np.ndarray, at: float, duration: float, target: np.ndarray | None = None
-) -> np.ndarray:
-    """Curves that leave their course at time ``at`` and go, linearly over ``duration`` seconds, to their
-    first sample's values (or ``target``'s), and stay there.
-
-    Args:
-        times: (T,) increasing sample times (s).
-        curves: (T, k) values at those times.
-        at: when to leave (s).
-        duration: how long the way back takes (s).
-        target: (k,) where the curves go; ``None``: their first sample.
-
-    Returns:
-        (T, k) curves.
-    """
-    curves = np.asarray(curves, float)
-    times = np.asarray(times, float)
-    start = np.array([np.interp(at, times, c) for c in curves.T])
-    goal = curves[0] if target is None else np.asarray(target, float)
-    w = np.clip((times - at) / duration, 0.0, 1.0)[:, None]
-    out = (1.0 - w) * start + w * goal
-    return np.where((times > at)[:, None], out, curves)
-
-
-def backed_off(
-    times: np.ndarray, curves: np.ndarray, offset: np.ndarray, start: float, end: float
-) -> np.ndarray:
-    """Curves shifted by ``offset``, the shift growing linearly from 0 at ``start`` to all of it at
-    ``end`` (s) and kept afterwards.
-
-    Args:
-        times: (T,) sample times (s).
-        curves: (T, k) values at those times.
-        offset: (k,) the full shift.
-        start, end: when the shift begins and when it is complete (s), ``start < end``.
-
-    Returns:
-        (T, k) curves.
-    """
-    w = np.clip((np.asarray(times, float) - start) / (end - start), 0.0, 1.0)[:, None]
-    return np.asarray(curves, float) + w * np.asarray(offset, float)
+from contactmpc.validate import Ge, OneOf, checked
 
 
 class SplineSpace:
@@ -112,44 +42,9 @@ class SplineSpace:
             only on the control points whose support meets that interval (the paper's future work:
             the wrist free while contact is being acquired, the reference's afterwards); ``None``: on
             every control point.
-        release_window: ``(start, end)`` seconds relative to the *last* expected contact: sample the
-            wrist on the control points whose support meets that interval too (the hand may move
-            around the object it lets go of instead of sweeping it along the reference's retreat);
-            ``None``: only ``root_window``'s. With ``release_window`` alone the wrist is sampled only
-            there.
-        release_pause: seconds (control time) the nominal wrist waits at its pose of the reference's
-            last expected contact before it follows the reference's retreat (the rest of the retreat
-            that much later), while the fingers open on the reference's schedule: open, then withdraw.
-            0 (the paper): the reference's wrist as it is. Only where the reference lets go.
-        release_open: seconds (control time) over which the nominal fingers go, from the reference's
-            pose at the last expected contact, to the open pose (``release_open_to``), and stay
-            there; 0 (the paper): the reference's fingers. Only where the reference lets go.
-        release_open_to: the open pose: ``approach``, the reference's first pose (the open hand of
-            the approach; on the paper apple it still encloses the object); ``flat``, every finger
-            joint at 0 clipped to its range (the Allegro's straight fingers, the thumb least opposed).
-        release_backoff: metres the nominal wrist moves along the release direction (from the
-            centroid of the expected contacts to the palm, at the reference's last expected contact:
-            away from the object, given by the problem), growing over ``release_backoff_window``
-            and kept while the wrist follows the reference's retreat; 0 (the paper): none. Only
-            where the reference lets go.
-        release_backoff_window: ``(start, end)`` seconds after the last expected contact over which
-            the back-off grows.
-        release_reset: at the first replan at or after the reference's last expected contact (only
-            where it lets go), the planner's committed control points whose support meets the rest of
-            the trial go to the release nominal (:meth:`fit`'s with ``release_open`` /
-            ``release_pause`` if set, else the reference's own): the drift that warm-started sampling
-            accumulated during the task (the grip its samples walked into) is dropped, and the hand
-            lets go as that nominal does. Until then the nominal is the reference's own (the refit of
-            an opened or paused nominal moves it a little everywhere, ~1e-12 rad, which changes whole
-            trials), so with nothing else changed (``variant=release_reset``) a trial is the full
-            method's bit for bit before the last contact. ``False``
-            (the paper): the committed control points carry on.
-        release_noise: the sampling noise on the control points whose support lies after the
-            reference's last expected contact, as a fraction of the space's (only where the reference
-            lets go). 0 holds the release nominal there (with ``release_reset``: the hand does what the
-            release nominal does, a schedule rather than a search; the samples' random walk otherwise
-            closes the opened fingers again within 2 s on the paper apple); 1 (the paper): the same
-            noise as before the release.
+        release: what the nominal and the noise do after the reference's last expected contact,
+            where it lets go (:class:`~contactmpc.control.release.ReleaseSchedule`); ``None`` (the
+            paper): the same as before it.
     """
 
     @checked
@@ -161,24 +56,10 @@ class SplineSpace:
         num_components: Annotated[int, Ge(1)] | None = None,
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
-        release_window: tuple[float, float] | None = None,
-        release_pause: Annotated[float, Ge(0)] = 0.0,
-        release_open: Annotated[float, Ge(0)] = 0.0,
-        release_reset: bool = False,
-        release_noise: Annotated[float, Ge(0)] = 1.0,
-        release_open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
-        release_backoff: Annotated[float, Ge(0)] = 0.0,
-        release_backoff_window: tuple[float, float] = (0.5, 1.5),
+        release: ReleaseSchedule | None = None,
     ) -> None:
-        self.release_open_to = release_open_to
-        self.release_backoff = float(release_backoff)
-        self.release_backoff_window = _window("release_backoff_window", release_backoff_window)
-        self.release_reset = bool(release_reset)
-        self.release_noise = float(release_noise)
-        self.release_pause = float(release_pause)
-        self.release_open = float(release_open)
-        self.root_window = _window("root_window", root_window)
-        self.release_window = _window("release_window", release_window)
+        self.release = ReleaseSchedule() if release is None else release
+        self.root_window = time_window("sampler.root_window", root_window)
         self.sigma2 = float(sigma2)
         self.root_sigma2 = float(root_sigma2)
         self.root_rotation_sigma2 = None if root_rotation_sigma2 is None else float(root_rotation_sigma2)
@@ -211,10 +92,9 @@ class SplineSpace:
             meta: the reference's ``meta`` (a space may take more than the curves from it, e.g. the
                 PCA that came with the paper's data).
             last_contact: control time (s) of the reference's last expected contact where it lets go
-                (``None``: it ends held); with ``release_pause`` the wrist waits there.
-            release_direction: (3,) world unit vector the wrist backs off along with
-                ``release_backoff`` (the first three root DOFs are slides along world x, y, z);
-                required then.
+                (``None``: it ends held): the release schedule's nominal from there.
+            release_direction: (3,) world unit vector the wrist backs off along with the schedule's
+                ``backoff`` (the first three root DOFs are slides along world x, y, z); required then.
 
         Returns:
             (M, d) nominal control points ``theta``.
@@ -224,25 +104,13 @@ class SplineSpace:
         self.num_root = int(num_root)
         self.num_fingers = hand_qpos.shape[1] - self.num_root
         root = hand_qpos[:, : self.num_root]
-        if self.release_pause > 0.0 and last_contact is not None:
-            root = paused(times, root, last_contact, self.release_pause)
-        if self.release_backoff > 0.0 and last_contact is not None:
-            if release_direction is None:
-                raise ValueError("sampler.release_backoff needs the release direction (the problem's)")
-            offset = np.zeros(self.num_root)
-            offset[:3] = self.release_backoff * np.asarray(release_direction, float)
-            start, end = (last_contact + w for w in self.release_backoff_window)
-            root = backed_off(times, root, offset, start, end)
-        root_cp = spline.fit(times, root)
+        root_cp = spline.fit(times, self.release.root_nominal(times, root, last_contact, release_direction))
         fingers = hand_qpos[:, self.num_root :]
-        if self.release_open > 0.0 and last_contact is not None:
+        if self.release.opens(last_contact):
             # the nominal opens; the space (a PCA) stays the reference's own
-            target = None
-            if self.release_open_to == "flat":
-                target = np.clip(0.0, *self.ranges[self.num_root :].T)
-            finger_cp = self._fit_fingers(
-                spline, times, opened(times, fingers, last_contact, self.release_open, target), fingers
-            )
+            ranges = self.ranges[self.num_root :]
+            opening = self.release.finger_nominal(times, fingers, last_contact, ranges)
+            finger_cp = self._fit_fingers(spline, times, opening, fingers)
         else:
             finger_cp = self._fit_fingers(spline, times, fingers)
         return np.concatenate([root_cp, finger_cp], axis=-1)
@@ -275,26 +143,27 @@ class SplineSpace:
     def point_noise_std(
         self, spline: UniformBSpline, first_contact: float | None, last_contact: float | None = None
     ) -> np.ndarray:
-        """The noise per control point: :attr:`noise_std` (d,), or with ``root_window`` or
-        ``release_window`` an (M, d) array whose root columns are 0 on the control points that touch
+        """The noise per control point: :attr:`noise_std` (d,), or with ``root_window`` or the release
+        schedule's ``window`` an (M, d) array whose root columns are 0 on the control points that touch
         neither the root window around ``first_contact`` nor the release window around
         ``last_contact`` (s, control time; ``None``: no contact expected, the wrist is never sampled);
-        with ``release_noise`` the rows of the control points whose support lies after
+        with the schedule's ``noise`` the rows of the control points whose support lies after
         ``last_contact`` scaled by it (``last_contact`` ``None``: the reference ends held, no change)."""
         std = self.noise_std
-        quieter = self.release_noise != 1.0 and last_contact is not None
-        if self.root_window is None and self.release_window is None and not quieter:
+        release_window, release_noise = self.release.window, self.release.noise
+        quieter = release_noise != 1.0 and last_contact is not None
+        if self.root_window is None and release_window is None and not quieter:
             return std
         out = np.tile(std, (spline.num_control_points, 1))
-        if self.root_window is not None or self.release_window is not None:
+        if self.root_window is not None or release_window is not None:
             keep = np.zeros(spline.num_control_points, bool)
-            for window, at in ((self.root_window, first_contact), (self.release_window, last_contact)):
+            for window, at in ((self.root_window, first_contact), (release_window, last_contact)):
                 if window is not None and at is not None:
                     start, end = (at + w for w in window)
                     keep[spline.window_indices(start, end - start)] = True
             out[~keep, : self.num_root] = 0.0
         if quieter:  # the control points whose support lies after the last contact
-            out[spline.knots[: spline.num_control_points] >= last_contact - 1e-9] *= self.release_noise
+            out[spline.knots[: spline.num_control_points] >= last_contact - 1e-9] *= release_noise
         return out
 
     # --- evaluation ---------------------------------------------------------------------------
@@ -354,9 +223,8 @@ class PCASplineSpace(SplineSpace):
         frozen_components: the first this many PCs get no noise. The authors' code lays its noise out
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
-        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
-            release_window, release_pause, release_open, release_reset, release_noise,
-            release_open_to, release_backoff, release_backoff_window: see :class:`SplineSpace`.
+        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window, release: see
+            :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -372,14 +240,7 @@ class PCASplineSpace(SplineSpace):
         frozen_components: Annotated[int, Ge(0)] = 0,
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
-        release_window: tuple[float, float] | None = None,
-        release_pause: Annotated[float, Ge(0)] = 0.0,
-        release_open: Annotated[float, Ge(0)] = 0.0,
-        release_reset: bool = False,
-        release_noise: Annotated[float, Ge(0)] = 1.0,
-        release_open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
-        release_backoff: Annotated[float, Ge(0)] = 0.0,
-        release_backoff_window: tuple[float, float] = (0.5, 1.5),
+        release: ReleaseSchedule | None = None,
     ) -> None:
         super().__init__(
             sigma2,
@@ -388,14 +249,7 @@ class PCASplineSpace(SplineSpace):
             num_components,
             root_rotation_sigma2,
             root_window,
-            release_window,
-            release_pause,
-            release_open,
-            release_reset,
-            release_noise,
-            release_open_to,
-            release_backoff,
-            release_backoff_window,
+            release,
         )
         self.basis = basis
         self.frozen_components = int(frozen_components)

@@ -137,7 +137,7 @@ class Planner:
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
         self._basis_cache: dict[int, np.ndarray] = {}
         self._actuators = as_index(problem.scene.index.actuators)
-        # sampler.release_reset: when the reference lets go, the committed control points from then on
+        # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
         if self.needs_rollouts and self.engine is None:
@@ -265,7 +265,7 @@ class Planner:
     def release(self) -> np.ndarray:
         """Put the committed control points whose support meets the rest of the trial after the
         reference's last expected contact to the release nominal (``problem.release_theta``:
-        ``sampler.release_reset``); done once.
+        ``sampler.release.reset``); done once.
 
         Returns:
             the indices of the control points reset.

@@ -1,0 +1,216 @@
+"""The release schedule: what the hand does where the reference lets go of the object (not the paper's).
+
+The paper's method follows the reference to its end. Where the reference lets go (its last expected
+contact comes before its end), a :class:`ReleaseSchedule` given to the sampler space
+(``sampler.release``; ``None``: the paper's method) changes the nominal the planner samples around
+after that last contact, and how:
+
+- ``pause``: the nominal wrist waits at its pose of the last contact before it follows the reference's
+  retreat (:func:`paused`), so the hand opens before it withdraws;
+- ``open`` / ``open_to``: the nominal fingers open to the approach's pre-shape or the flat hand
+  (:func:`opened`);
+- ``backoff`` / ``backoff_window``: the nominal wrist backs off from the expected contacts
+  (:func:`backed_off`);
+- ``reset``: the planner's committed control points go back to that nominal at the last contact;
+- ``noise``: the sampling noise after the last contact, as a fraction of the space's;
+- ``window``: the wrist is also sampled around the last contact.
+
+Every option at its default leaves the paper's method as it is.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import numpy as np
+
+from contactmpc.validate import ConfigError, Ge, OneOf, checked
+
+
+def time_window(name: str, window: tuple[float, float] | None) -> tuple[float, float] | None:
+    """``(start, end)`` as floats, or ``None``; refused unless start < end (``name`` names the key)."""
+    if window is None:
+        return None
+    if len(window) != 2 or not window[0] < window[1]:
+        raise ConfigError(f"{name} must be (start, end) with start < end, got {window}")
+    return float(window[0]), float(window[1])
+
+
+def paused(times: np.ndarray, curves: np.ndarray, at: float, pause: float) -> np.ndarray:
+    """Curves that stop at time ``at`` for ``pause`` seconds and then go on as before, that much later.
+
+    Args:
+        times: (T,) increasing sample times (s).
+        curves: (T, k) values at those times.
+        at: when to stop (s).
+        pause: how long (s).
+
+    Returns:
+        (T, k): ``curves(t)`` before ``at``, ``curves(at)`` on ``[at, at + pause]``, ``curves(t - pause)``
+        after (linear interpolation between samples); the last ``pause`` seconds of the curves are cut.
+    """
+    times = np.asarray(times, float)
+    source = np.where(times <= at, times, np.maximum(at, times - pause))
+    return np.stack([np.interp(source, times, c) for c in np.asarray(curves, float).T], axis=-1)
+
+
+def opened(
+    times: np.ndarray, curves: np.ndarray, at: float, duration: float, target: np.ndarray | None = None
+) -> np.ndarray:
+    """Curves that leave their course at time ``at`` and go, linearly over ``duration`` seconds, to their
+    first sample's values (or ``target``'s), and stay there.
+
+    Args:
+        times: (T,) increasing sample times (s).
+        curves: (T, k) values at those times.
+        at: when to leave (s).
+        duration: how long the way back takes (s).
+        target: (k,) where the curves go; ``None``: their first sample.
+
+    Returns:
+        (T, k) curves.
+    """
+    curves = np.asarray(curves, float)
+    times = np.asarray(times, float)
+    start = np.array([np.interp(at, times, c) for c in curves.T])
+    goal = curves[0] if target is None else np.asarray(target, float)
+    w = np.clip((times - at) / duration, 0.0, 1.0)[:, None]
+    out = (1.0 - w) * start + w * goal
+    return np.where((times > at)[:, None], out, curves)
+
+
+def backed_off(
+    times: np.ndarray, curves: np.ndarray, offset: np.ndarray, start: float, end: float
+) -> np.ndarray:
+    """Curves shifted by ``offset``, the shift growing linearly from 0 at ``start`` to all of it at
+    ``end`` (s) and kept afterwards.
+
+    Args:
+        times: (T,) sample times (s).
+        curves: (T, k) values at those times.
+        offset: (k,) the full shift.
+        start, end: when the shift begins and when it is complete (s), ``start < end``.
+
+    Returns:
+        (T, k) curves.
+    """
+    w = np.clip((np.asarray(times, float) - start) / (end - start), 0.0, 1.0)[:, None]
+    return np.asarray(curves, float) + w * np.asarray(offset, float)
+
+
+class ReleaseSchedule:
+    """What the sampler's nominal and noise do after the reference's last expected contact.
+
+    Only where the reference lets go (its track ends without contact); a reference that ends held is
+    planned as without a schedule. Every default is the paper's method.
+
+    Args:
+        pause: seconds (control time) the nominal wrist waits at its pose of the reference's last
+            expected contact before it follows the reference's retreat (the rest of the retreat that
+            much later), while the fingers open on the reference's schedule: open, then withdraw.
+            0: the reference's wrist as it is.
+        open: seconds (control time) over which the nominal fingers go, from the reference's pose at
+            the last expected contact, to the open pose (``open_to``), and stay there; 0: the
+            reference's fingers.
+        open_to: the open pose: ``approach``, the reference's first pose (the open hand of the
+            approach; on the paper apple it still encloses the object); ``flat``, every finger joint at
+            0 clipped to its range (the Allegro's straight fingers, the thumb least opposed).
+        backoff: metres the nominal wrist moves along the release direction (from the centroid of the
+            expected contacts to the palm, at the reference's last expected contact: away from the
+            object, given by the problem), growing over ``backoff_window`` and kept while the wrist
+            follows the reference's retreat; 0: none.
+        backoff_window: ``(start, end)`` seconds after the last expected contact over which the
+            back-off grows.
+        reset: at the first replan at or after the reference's last expected contact, the planner's
+            committed control points whose support meets the rest of the trial go to the release
+            nominal (with ``open`` / ``pause`` / ``backoff`` if set, else the reference's own): the
+            drift that warm-started sampling accumulated during the task (the grip its samples walked
+            into) is dropped, and the hand lets go as that nominal does. Until then the nominal is the
+            reference's own (the refit of an opened or paused nominal moves it a little everywhere,
+            ~1e-12 rad, which changes whole trials), so with ``reset`` alone a trial is the paper
+            method's bit for bit before the last contact. ``False``: the committed control points
+            carry on.
+        noise: the sampling noise on the control points whose support lies after the reference's last
+            expected contact, as a fraction of the space's. 0 holds the release nominal there (with
+            ``reset``: the hand does what the release nominal does, a schedule rather than a search);
+            1: the same noise as before the release.
+        window: ``(start, end)`` seconds relative to the last expected contact: sample the wrist on the
+            control points whose support meets that interval too (the hand may move around the object
+            it lets go of); ``None``: only the space's ``root_window``. Without a ``root_window`` the
+            wrist is sampled only there.
+    """
+
+    @checked
+    def __init__(
+        self,
+        pause: Annotated[float, Ge(0)] = 0.0,
+        open: Annotated[float, Ge(0)] = 0.0,
+        open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
+        backoff: Annotated[float, Ge(0)] = 0.0,
+        backoff_window: tuple[float, float] = (0.5, 1.5),
+        reset: bool = False,
+        noise: Annotated[float, Ge(0)] = 1.0,
+        window: tuple[float, float] | None = None,
+    ) -> None:
+        self.pause = float(pause)
+        self.open = float(open)
+        self.open_to = open_to
+        self.backoff = float(backoff)
+        self.backoff_window = time_window("sampler.release.backoff_window", backoff_window)
+        self.reset = bool(reset)
+        self.noise = float(noise)
+        self.window = time_window("sampler.release.window", window)
+
+    def __repr__(self) -> str:
+        fields = ("pause", "open", "open_to", "backoff", "backoff_window", "reset", "noise", "window")
+        return f"ReleaseSchedule({', '.join(f'{k}={getattr(self, k)!r}' for k in fields)})"
+
+    def root_nominal(
+        self,
+        times: np.ndarray,
+        root: np.ndarray,
+        last_contact: float | None,
+        direction: np.ndarray | None,
+    ) -> np.ndarray:
+        """The nominal wrist curves: ``root`` (T, R) paused and backed off after ``last_contact``
+        (``None``: the reference ends held, ``root`` as it is).
+
+        Args:
+            times: (T,) control times of the reference frames.
+            root: (T, R) the reference's wrist DOFs; the first three are slides along world x, y, z.
+            last_contact: control time (s) of the reference's last expected contact where it lets go.
+            direction: (3,) world unit vector to back off along; required with ``backoff``.
+
+        Raises:
+            ValueError: ``backoff`` without a direction.
+        """
+        if self.pause > 0.0 and last_contact is not None:
+            root = paused(times, root, last_contact, self.pause)
+        if self.backoff > 0.0 and last_contact is not None:
+            if direction is None:
+                raise ValueError("sampler.release.backoff needs the release direction (the problem's)")
+            offset = np.zeros(root.shape[1])
+            offset[:3] = self.backoff * np.asarray(direction, float)
+            start, end = (last_contact + w for w in self.backoff_window)
+            root = backed_off(times, root, offset, start, end)
+        return root
+
+    def opens(self, last_contact: float | None) -> bool:
+        """Whether the nominal fingers open (``open`` set and the reference lets go)."""
+        return self.open > 0.0 and last_contact is not None
+
+    def finger_nominal(
+        self, times: np.ndarray, fingers: np.ndarray, last_contact: float, finger_ranges: np.ndarray
+    ) -> np.ndarray:
+        """The nominal finger curves (T, F) opening from ``last_contact`` (see :meth:`opens`).
+
+        Args:
+            times: (T,) control times of the reference frames.
+            fingers: (T, F) the reference's finger joints.
+            last_contact: control time (s) of the reference's last expected contact.
+            finger_ranges: (F, 2) the finger actuators' ranges (the flat hand is 0 clipped to them).
+        """
+        target = None
+        if self.open_to == "flat":
+            target = np.clip(0.0, *np.asarray(finger_ranges).T)
+        return opened(times, fingers, last_contact, self.open, target)

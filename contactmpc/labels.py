@@ -1,0 +1,134 @@
+"""Method labels and config keys across versions: one map that resuming and the analysis both read.
+
+A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
+``robust``; or a named combination such as ``wrist_clearance``) with three independent groups on top:
+``wrist`` (``fixed | sampled | acquire``), ``shaping`` (``none | surface | clearance``) and ``release``
+(``none | reset | open | scheduled | flat | backoff``). Records made before the groups existed name the
+combination by one variant label (``variant: release_flat``); records made before the release schedule
+was one object store its options as flat sampler keys (``sampler.release_pause``).
+
+- :func:`method_labels` reads a record's labels, old or new, as ``{variant, wrist, shaping, release}``;
+- :func:`method_name` names the method of those labels, the same name for an old record and a new
+  one of the same combination (the old variant's name where it had one: ``wrist_acquire``), by which
+  the analysis groups trials;
+- :func:`upgrade_config` rewrites an old record's config to today's keys, so a resume and the
+  analysis compare it with a config composed now.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping
+from typing import Any
+
+from contactmpc.control.release import ReleaseSchedule
+
+GROUPS: dict[str, str] = {"wrist": "fixed", "shaping": "none", "release": "none"}
+"""The method's groups on top of the variant, each with its default member (the paper's method)."""
+
+NAMED_VARIANTS: dict[str, str] = {"wrist": "full", "wrist_clearance": "full"}
+"""Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
+build on: the method is that variant with the groups the record names."""
+
+OLD_VARIANTS: dict[str, dict[str, str]] = {
+    "wrist": {"variant": "wrist", "wrist": "sampled"},
+    "wrist_acquire": {"variant": "full", "wrist": "acquire"},
+    "surface": {"variant": "full", "shaping": "surface"},
+    "clearance": {"variant": "full", "shaping": "clearance"},
+    "wrist_surface": {"variant": "full", "wrist": "acquire", "shaping": "surface"},
+    "wrist_clearance": {"variant": "wrist_clearance", "wrist": "acquire", "shaping": "clearance"},
+    "release_reset": {"variant": "full", "release": "reset"},
+    "release": {"variant": "full", "release": "open"},
+    "release_scheduled": {"variant": "full", "release": "scheduled"},
+    "release_flat": {"variant": "full", "release": "flat"},
+    "release_backoff": {"variant": "full", "release": "backoff"},
+}
+"""Variant labels of records made before the groups (``conf/variant`` had one file per combination):
+the labels the same trial gets now. A label not here is today's variant with the groups' defaults."""
+
+# (variant built on, *groups) -> the old variant's name
+_NAMES: dict[tuple[str, ...], str] = {
+    (NAMED_VARIANTS.get(new["variant"], new["variant"]), *(new.get(g, d) for g, d in GROUPS.items())): old
+    for old, new in OLD_VARIANTS.items()
+}
+
+
+def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
+    """A record's method labels as today's ``{variant, wrist, shaping, release}``.
+
+    A record with group labels is read as it is (a group it lacks, or names as ``None``, at its
+    default); a record without any, by its variant label through :data:`OLD_VARIANTS`.
+
+    Args:
+        labels: the record's fields (or any mapping with ``variant`` and the groups' names).
+    """
+    variant = labels.get("variant")
+    if not any(labels.get(g) for g in GROUPS) and variant in OLD_VARIANTS:
+        labels = OLD_VARIANTS[variant]
+        variant = labels["variant"]
+    return {"variant": variant, **{g: labels.get(g) or d for g, d in GROUPS.items()}}
+
+
+def method_name(labels: Mapping[str, Any]) -> str | None:
+    """The name of the method a record ran (see :func:`method_labels`): the variant's when every
+    group is at its default, the old variant's of the combination where there was one
+    (``wrist_clearance``, ``release_flat``), else the variant followed by each group off its default,
+    ``+group=member`` (``joint_space+wrist=acquire``). ``None`` without a variant label."""
+    found = method_labels(labels)
+    variant = found["variant"]
+    if not isinstance(variant, str) or not variant:
+        return None
+    groups = tuple(found[g] for g in GROUPS)
+    base = NAMED_VARIANTS.get(variant, variant)
+    if groups == tuple(GROUPS.values()):
+        return base
+    if (name := _NAMES.get((base, *groups))) is not None:
+        return name
+    return base + "".join(f"+{g}={m}" for g, m in zip(GROUPS, groups, strict=True) if m != GROUPS[g])
+
+
+RELEASE_TARGET = f"{ReleaseSchedule.__module__}.{ReleaseSchedule.__qualname__}"
+"""What ``sampler.release`` builds."""
+
+OLD_RELEASE_KEYS: dict[str, str] = {
+    "release_pause": "pause",
+    "release_open": "open",
+    "release_open_to": "open_to",
+    "release_backoff": "backoff",
+    "release_backoff_window": "backoff_window",
+    "release_reset": "reset",
+    "release_noise": "noise",
+    "release_window": "window",
+}
+"""The sampler's release options before they were one object (``sampler.release_pause``), by their
+name in :class:`~contactmpc.control.release.ReleaseSchedule` (``sampler.release.pause``)."""
+
+RELEASE_DEFAULTS: dict[str, Any] = {
+    p.name: list(p.default) if isinstance(p.default, tuple) else p.default
+    for p in inspect.signature(ReleaseSchedule).parameters.values()
+}
+"""The release schedule's options at their defaults (the paper's method), as a config holds them."""
+
+
+def upgrade_config(config: Any) -> Any:
+    """A record's resolved config with today's keys: wherever a node holds old release options
+    (:data:`OLD_RELEASE_KEYS`: the sampler and the trial job's copy of it), they become one
+    ``release`` node, ``None`` where every option was at its default (the paper's method, as
+    ``sampler.release: null`` is now), else a :data:`RELEASE_TARGET` node with every option. A config
+    without old keys is returned as it is; the argument is not changed.
+
+    Raises:
+        ValueError: a node holds both old release options and a ``release`` node.
+    """
+    if not isinstance(config, Mapping):
+        return config
+    out = {k: upgrade_config(v) for k, v in config.items()}
+    old = {k: out.pop(k) for k in OLD_RELEASE_KEYS if k in out}
+    if not old:
+        return out
+    if out.get("release") is not None:
+        raise ValueError("a config holds both sampler.release and the old sampler.release_* options")
+    options = {**RELEASE_DEFAULTS, **{OLD_RELEASE_KEYS[k]: v for k, v in old.items()}}
+    options = {k: list(v) if isinstance(v, tuple) else v for k, v in options.items()}
+    out["release"] = None if options == RELEASE_DEFAULTS else {"_target_": RELEASE_TARGET, **options}
+    return out

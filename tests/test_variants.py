@@ -1,0 +1,260 @@
+"""Variants composed from groups: every old variant is the same trial under its new name, old records
+resume and group as before, and every task x variant, group member and experiment builds and plans.
+
+The old variants' configs are in ``tests/data/old_variants.json``: what each member of ``conf/variant``
+set, at 21b5a0a (before the wrist, shaping and release groups), beyond ``variant=full`` (task=apple,
+resolved, flattened). An old variant composes now, through :data:`EXPECTED`, to the same config in
+every value that reaches the trial, its old flat ``sampler.release_*`` keys read through
+:func:`contactmpc.labels.upgrade_config`; only the labels (the root ``variant`` slot) may differ.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+from pathlib import Path
+
+import pytest
+from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.utils import instantiate
+from omegaconf import OmegaConf
+
+from contactmpc import labels
+from contactmpc.labels import (
+    OLD_RELEASE_KEYS,
+    OLD_VARIANTS,
+    RELEASE_DEFAULTS,
+    method_labels,
+    method_name,
+    upgrade_config,
+)
+from contactmpc.runs import config_differences
+from tests.conftest import CONF_DIR, TASKS, build_scene, compose_config
+from tests.helpers import static_reference
+
+OLD = json.loads((Path(__file__).parent / "data" / "old_variants.json").read_text())["variants"]
+
+EXPECTED: dict[str, tuple[str, ...]] = {
+    "full": ("variant=full",),
+    "no_contact": ("variant=no_contact",),
+    "joint_space": ("variant=joint_space",),
+    "replay": ("variant=replay",),
+    "robust": ("variant=robust",),
+    "wrist": ("variant=wrist",),
+    "wrist_acquire": ("variant=full", "wrist=acquire"),
+    "surface": ("variant=full", "shaping=surface"),
+    "clearance": ("variant=full", "shaping=clearance"),
+    "wrist_surface": ("variant=full", "wrist=acquire", "shaping=surface"),
+    "wrist_clearance": ("variant=wrist_clearance",),
+    "release_reset": ("variant=full", "release=reset"),
+    "release": ("variant=full", "release=open"),
+    "release_scheduled": ("variant=full", "release=scheduled"),
+    "release_flat": ("variant=full", "release=flat"),
+    "release_backoff": ("variant=full", "release=backoff"),
+}
+"""Each variant of 21b5a0a -> the overrides that compose the same trial now."""
+
+PAPER_DATA = os.environ.get("CONTACTMPC_PAPER_DATA", "")
+HAS_PAPER_DATA = bool(PAPER_DATA and Path(PAPER_DATA, "allegro").is_dir())
+VARIANTS = sorted(p.stem for p in (CONF_DIR / "variant").glob("*.yaml"))
+GROUP_MEMBERS = [(g, p.stem) for g in labels.GROUPS for p in sorted((CONF_DIR / g).glob("*.yaml"))]
+EXPERIMENTS = sorted(p.stem for p in (CONF_DIR / "experiment").glob("*.yaml"))
+# the smallest planner that plans: one plan of 2 samples over a 0.1 s horizon, single-threaded
+TINY = (
+    "planner.num_samples=2",
+    "planner.horizon=0.1",
+    "planner.replan_period=0.05",
+    "planner.nthread=1",
+    "duration=0.05",
+    "job.progress=false",
+)
+
+
+def _flat(node, prefix: str = "") -> dict:
+    if isinstance(node, dict) and node:
+        return {k: v for key, val in node.items() for k, v in _flat(val, f"{prefix}{key}.").items()}
+    return {prefix[:-1]: node}
+
+
+def _config(*overrides: str) -> dict:
+    return OmegaConf.to_container(compose_config([*overrides, "output_dir=/tmp/x"]), resolve=True)
+
+
+def _as_before(config: dict, changes: dict) -> dict:
+    """``config`` (today's ``variant=full``) as a record made at 21b5a0a holds it, with ``changes`` (an
+    old variant's values beyond full's) applied: the release options as flat ``sampler.release_*`` keys."""
+    old = copy.deepcopy(config)
+    for node in (old["sampler"], old["job"]["sampler"]):
+        assert node.pop("release") is None
+        node.update({k: RELEASE_DEFAULTS[name] for k, name in OLD_RELEASE_KEYS.items()})
+    for key, value in sorted(changes.items(), key=lambda kv: kv[1] != "<absent>"):  # removals first
+        *parents, leaf = key.split(".")
+        node = old
+        for p in parents:
+            if not isinstance(node.get(p), dict):
+                node[p] = {}
+            node = node[p]
+        if value == "<absent>":
+            node.pop(leaf, None)
+        else:
+            node[leaf] = value
+    return old
+
+
+def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
+    assert (
+        set(EXPECTED)
+        == set(OLD)
+        == set(OLD_VARIANTS) | {"full", "no_contact", "joint_space", "replay", "robust"}
+    )
+    assert len(VARIANTS) <= 8
+
+
+@pytest.mark.parametrize("old", sorted(EXPECTED))
+def test_an_old_variant_composes_now_to_the_same_trial(old):
+    """The config the old variant composed at 21b5a0a, and the one its overrides compose now, hold the
+    same value at every key that reaches the trial (the old release keys read through the key map), so
+    a record of it resumes as the same trial; and the method's name is the old variant's."""
+    base = _config("task=apple", "variant=full")
+    before = _as_before(base, OLD[old])
+    after = _config("task=apple", *EXPECTED[old])
+    now = compose_config(["task=apple", *EXPECTED[old]], return_hydra_config=True)
+    a, b = _flat(upgrade_config(before)), _flat(upgrade_config(after))
+    a.pop("variant"), b.pop("variant")  # the root slot named after the group: a label, not the trial
+    assert a == b
+    assert config_differences(before, after) == []
+    choices = {k: now.hydra.runtime.choices.get(k) for k in ("variant", *labels.GROUPS)}
+    assert method_labels({"variant": old}) == method_labels(choices)  # the label map: old -> now
+    assert method_name(choices) == method_name({"variant": old}) == old
+
+
+def test_old_release_keys_read_as_one_release_node():
+    """A record's flat ``sampler.release_*`` keys: at their defaults, ``sampler.release: null``; else
+    one ReleaseSchedule node, equal to what release=backoff composes now."""
+    plain = {"sampler": {"sigma2": 0.2, "release_pause": 0.0, "release_window": None}}
+    assert upgrade_config(plain) == {"sampler": {"sigma2": 0.2, "release": None}}
+    old = {f"release_{k}": v for k, v in (("pause", 1.5), ("open", 1.0), ("open_to", "flat"))}
+    old |= {"release_backoff": 0.08, "release_backoff_window": [0.75, 1.75], "release_reset": True}
+    old |= {"release_noise": 0.0}
+    now = _config("task=apple", "release=backoff")["sampler"]["release"]
+    assert upgrade_config({"sampler": old})["sampler"]["release"] == now
+    with pytest.raises(ValueError, match="both"):
+        upgrade_config({"sampler": {"release": now, "release_pause": 1.0}})
+
+
+def test_method_names_group_old_and_new_records_alike():
+    """The analysis' method name: the old variant's for its combination, whichever labels name it."""
+    assert method_name({"variant": "wrist_acquire"}) == "wrist_acquire"
+    assert method_name({"variant": "full", "wrist": "acquire"}) == "wrist_acquire"
+    assert method_name({"variant": "wrist_clearance", "wrist": "acquire", "shaping": "clearance"}) == (
+        "wrist_clearance"
+    )
+    assert method_name({"variant": "full", "wrist": "acquire", "shaping": "clearance"}) == "wrist_clearance"
+    assert method_name({"variant": "full", "release": "open"}) == "release"
+    assert method_name({"variant": "joint_space", "wrist": "acquire"}) == "joint_space+wrist=acquire"
+    assert method_name({"variant": "full", "wrist": "fixed", "shaping": None}) == "full"
+    assert method_name({"variant": None}) is None
+
+
+# ------------------------------------------------------------------------- one planning step each
+
+
+@pytest.fixture(scope="module")
+def reference_files(tmp_path_factory):
+    """A short static reference .npz per synthetic task (``task.reference_path``)."""
+    root = tmp_path_factory.mktemp("refs")
+    return {
+        task: str(static_reference(build_scene((f"task={task}",)), duration=0.2, frames=6).save(root / task))
+        for task in TASKS
+    }
+
+
+def _plans_once(overrides: list[str], name: str, reference_files: dict, tmp_path: Path) -> None:
+    """Compose, build and run the trial job of task ``name`` for one plan; its record says ``ok``."""
+    if name.startswith("paper_") and not HAS_PAPER_DATA:
+        pytest.skip("CONTACTMPC_PAPER_DATA does not name the authors' mjpc/tasks directory")
+    reference = [f"task.reference_path={reference_files[name]}"] if name in reference_files else []
+    cfg = compose_config([*overrides, *TINY, *reference])
+    job = instantiate(cfg.job)
+    path = job(
+        make_scene=lambda: instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task)),
+        output_dir=tmp_path,
+        seed=cfg.seed,
+        config=None,
+        labels={"task": name},
+    )
+    record = json.loads(Path(path).read_text())
+    assert record["status"] == "ok", record.get("error")
+    assert record["num_plans"] >= 1
+
+
+TASK_NAMES = sorted(p.stem for p in (CONF_DIR / "task").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("task", TASK_NAMES)
+def test_every_task_and_variant_plans(task, variant, reference_files, tmp_path):
+    _plans_once([f"task={task}", f"variant={variant}"], task, reference_files, tmp_path)
+
+
+@pytest.mark.parametrize(("group", "member"), GROUP_MEMBERS, ids=[f"{g}={m}" for g, m in GROUP_MEMBERS])
+def test_every_group_member_plans(group, member, reference_files, tmp_path):
+    _plans_once(["task=doorknob", f"{group}={member}"], "doorknob", reference_files, tmp_path)
+
+
+def first_job(experiment: str) -> tuple[list[str], str]:
+    """The overrides of an experiment's first job, as its sweeper orders them, and its task."""
+    cfg = compose_config([f"experiment={experiment}"], return_hydra_config=True)
+    params = OmegaConf.to_container(cfg.hydra.sweeper.params)
+    parsed = OverridesParser.create().parse_overrides([f"{k}={v}" for k, v in params.items()])
+    overrides = [f"experiment={experiment}", *BasicSweeper.split_arguments(parsed, None)[0][0]]
+    return overrides, compose_config(overrides, return_hydra_config=True).hydra.runtime.choices.task
+
+
+@pytest.mark.parametrize("experiment", EXPERIMENTS)
+def test_every_experiment_s_first_job_plans(experiment, reference_files, tmp_path):
+    _plans_once(*first_job(experiment), reference_files, tmp_path)
+
+
+def test_the_analysis_groups_an_old_record_with_a_new_one_of_the_same_method(tmp_path):
+    """An old record (``variant: release_backoff``, flat release keys) and a new one (``variant: full``,
+    ``release: backoff``) are one method, one condition; of the same seed, one trial (the newer kept)."""
+    from analysis.aggregate import RecordWarning, load_records
+    from contactmpc.records import write_json
+
+    base = _config("task=apple", "variant=full")
+    records = {
+        "old0": ({"variant": "release_backoff"}, _as_before(base, OLD["release_backoff"]), 0),
+        "old1": ({"variant": "release_backoff"}, _as_before(base, OLD["release_backoff"]), 1),
+        "new1": (
+            {"variant": "full", "release": "backoff"},
+            _config("task=apple", *EXPECTED["release_backoff"]),
+            1,
+        ),
+    }
+    for i, (name, (found, config, seed)) in enumerate(records.items()):
+        config = {**config, "seed": seed}
+        record = {"task": "apple", **found, "seed": seed, "status": "ok", "ttf": 1.0, "config": config}
+        write_json(tmp_path / name / "trial.json", record)
+        os.utime(tmp_path / name / "trial.json", (1000 + i, 1000 + i))
+    with pytest.warns(RecordWarning, match="recorded 2 times: keeping the newest, .*new1"):
+        df = load_records(tmp_path)
+    assert sorted(df["seed"]) == [0, 1]
+    assert set(df["variant"]) == {"release_backoff"} and set(df["release"]) == {"backoff"}
+    assert set(df["condition"]) == {""}
+
+
+def test_the_release_node_has_a_schema():
+    """sampler.release from the release group holds every option of ReleaseSchedule, and a misspelt
+    one fails at compose time."""
+    from hydra.errors import ConfigCompositionException
+
+    from contactmpc.control.release import ReleaseSchedule
+
+    node = _config("task=apple", "release=reset")["sampler"]["release"]
+    assert node == {"_target_": labels.RELEASE_TARGET, **RELEASE_DEFAULTS, "reset": True}
+    assert isinstance(instantiate(node), ReleaseSchedule)
+    with pytest.raises(ConfigCompositionException, match="sampler.release.paus"):
+        compose_config(["release=open", "sampler.release.paus=1.0"])
