@@ -56,16 +56,24 @@ _NAMES: dict[tuple[str, ...], str] = {
 def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
     """A record's method labels as today's ``{variant, wrist, shaping, release}``.
 
-    A record with group labels is read as it is (a group it lacks, or names as ``None``, at its
-    default); a record without any, by its variant label through :data:`OLD_VARIANTS`.
+    A record's group labels are read as they are (a group it lacks, or names as ``None``, at its
+    default); a variant label in :data:`OLD_VARIANTS` (an old record's, or a name :func:`method_name`
+    gave) adds that entry's groups where the labels leave them at their defaults, so reading
+    :func:`method_name`'s result again gives the same method.
 
     Args:
         labels: the record's fields (or any mapping with ``variant`` and the groups' names).
     """
     variant = labels.get("variant")
-    if not any(labels.get(g) for g in GROUPS) and variant in OLD_VARIANTS:
-        labels = OLD_VARIANTS[variant]
-        variant = labels["variant"]
+    if variant in OLD_VARIANTS:
+        # an old variant's name, or a method's name that method_name gave: its groups, where the labels
+        # leave them at their defaults (so reading a method's own name again gives the same method)
+        old = OLD_VARIANTS[variant]
+        given = {g: labels.get(g) for g in GROUPS}
+        return {
+            "variant": old["variant"],
+            **{g: given[g] if given[g] not in (None, d) else old.get(g, d) for g, d in GROUPS.items()},
+        }
     return {"variant": variant, **{g: labels.get(g) or d for g, d in GROUPS.items()}}
 
 

@@ -70,7 +70,7 @@ def _intro(f) -> str:
     seeds = len(params.get("seed", [])) or 6
     m = len(params.get("task", [])) * (len(params.get("variant", [])) - 1) or 8  # tests per reading
     p_n, p_less = smallest_u_p(seeds, seeds), smallest_u_p(seeds - 1, seeds - 1)
-    samples = _conf(PRESETS / "paper_32samples.yaml", "planner.num_samples")
+    samples = _conf(REPO / "conf" / "operating_point" / "s32.yaml", "planner.num_samples")
     fewest = "the fewest" if m * p_n < ALPHA <= m * p_less else "a number of"
     return (
         "`experiment=fig3_paper` runs the paper's Fig. 3 at `preset=paper_32samples` (the paper's planner "

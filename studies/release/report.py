@@ -333,7 +333,7 @@ def glance(study) -> list[dict]:
         rows.append(
             {
                 "task": f"paper {task}",
-                "configuration": "`preset=paper_32samples variant=release_flat`",
+                "configuration": "`preset=paper_32samples release=flat`",
                 "completed": frac(int(g["completed"].fillna(False).astype(bool).sum()), len(g)),
                 "finished cleanly": frac(int(g["finished_cleanly"].fillna(False).astype(bool).sum()), len(g)),
                 "median CPU-s per trial": median(g["cpu_seconds"]),
