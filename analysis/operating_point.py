@@ -20,7 +20,7 @@ Command line::
         [--task apple,stapler] [--variant full,wrist_acquire] [--fidelity paper]
 
 ``--task``, ``--variant`` and ``--fidelity`` keep only those rows (comma-separated, the task without its
-``paper_`` prefix): e.g. ``results/fig3_paper``'s full-method apple and bottle beside the map's sweep.
+``paper_`` prefix): e.g. ``studies/fig3_paper/records``'s full-method apple and bottle beside the map's sweep.
 """
 
 from __future__ import annotations

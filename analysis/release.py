@@ -15,7 +15,7 @@ Command line::
 ``--task``, ``--variant`` and ``--fidelity`` keep only those rows (comma-separated; the task without its
 ``paper_`` prefix; a variant by its method name, :func:`contactmpc.labels.method_name`: ``release_reset``
 for ``release=reset``), so a variant's sweep can be read beside another sweep's records of the variant it
-is compared with (e.g. ``results/fig3_paper``'s ``full``).
+is compared with (e.g. ``studies/fig3_paper/records``'s ``full``).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The kept sweep records (``results/<sweep>/`` and ``studies/<name>/records/``): every record is whole and
+"""The kept sweep records (``studies/<name>/records/``): every record is whole and
 says where it ran. That each study's report is what its records make is ``tests/test_studies.py``."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from contactmpc.records import RECORD_NAME
 
 REPO = Path(__file__).resolve().parent.parent
 RECORDS = sorted(
-    [*(REPO / "results").glob(f"*/*/{RECORD_NAME}"), *(REPO / "studies").glob(f"*/records/**/{RECORD_NAME}")]
+    [*(REPO / "studies").glob(f"*/records/**/{RECORD_NAME}")]
 )
 
 
