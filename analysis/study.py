@@ -38,6 +38,7 @@ import pandas as pd
 
 from analysis.aggregate import load_records
 from analysis.summarize import Fmt
+from contactmpc.labels import GROUPS, method_name
 from contactmpc.records import RECORD_NAME
 
 REPO = Path(__file__).resolve().parent.parent
@@ -248,25 +249,14 @@ def _with_fidelity(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _relabel(df: pd.DataFrame) -> pd.DataFrame:
-    """Variant labels by the project's label map where it has one, so that an old record and a new one
-    of the same method group together: ``contactmpc.labels.method_name`` (a record's ``variant`` and
-    method groups -> the method's name), else a mapping ``contactmpc.labels.VARIANT_LABELS`` (old name
-    -> new). Without a label map, the records' labels as they are."""
-    try:
-        from contactmpc import labels  # type: ignore[attr-defined]
-    except ImportError:
-        return df
+    """Variant labels by the project's label map (:func:`contactmpc.labels.method_name`: a record's
+    ``variant`` and method groups -> the method's name), so that an old record (``variant=release_flat``)
+    and a new one of the same method (``release=flat``) group together."""
     if "variant" not in df or not len(df):
         return df
-    name = getattr(labels, "method_name", None)
-    if callable(name):
-        groups = [c for c in ("variant", "wrist", "shaping", "release") if c in df]
-        rows = df[groups].astype(object).where(df[groups].notna(), None).to_dict("records")
-        return df.assign(variant=[name(r) or r["variant"] for r in rows])
-    mapping = getattr(labels, "VARIANT_LABELS", None)
-    if isinstance(mapping, dict):
-        return df.assign(variant=df["variant"].map(lambda v: mapping.get(v, v)))
-    return df
+    groups = [c for c in ("variant", *GROUPS) if c in df]
+    rows = df[groups].astype(object).where(df[groups].notna(), None).to_dict("records")
+    return df.assign(variant=[method_name(r) or r["variant"] for r in rows])
 
 
 def names(root: Path = STUDIES) -> list[str]:

@@ -21,6 +21,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
+import launch
 from contactmpc import labels
 from contactmpc.labels import (
     OLD_RELEASE_KEYS,
@@ -177,7 +178,7 @@ def _plans_once(overrides: list[str], name: str, reference_files: dict, tmp_path
         pytest.skip("CONTACTMPC_PAPER_DATA does not name the authors' mjpc/tasks directory")
     reference = [f"task.reference_path={reference_files[name]}"] if name in reference_files else []
     cfg = compose_config([*overrides, *TINY, *reference])
-    job = instantiate(cfg.job)
+    job = launch.build_job(cfg.job)
     path = job(
         make_scene=lambda: instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task)),
         output_dir=tmp_path,
