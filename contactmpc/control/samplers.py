@@ -23,7 +23,7 @@ import numpy as np
 
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis, PCACurves
-from contactmpc.validate import ConfigError, Ge, OneOf, checked
+from contactmpc.validate import ConfigError, Ge, Gt, OneOf, checked
 
 
 def _window(name: str, window: tuple[float, float] | None) -> tuple[float, float] | None:
@@ -150,6 +150,9 @@ class SplineSpace:
             release nominal does, a schedule rather than a search; the samples' random walk otherwise
             closes the opened fingers again within 2 s on the paper apple); 1 (the paper): the same
             noise as before the release.
+        noise_ramp: the noise grows along the planning horizon, linearly from 1x at the planning time
+            to this factor at the horizon's end, at each control point's Greville abscissa (judo's
+            noise ramp, :meth:`horizon_noise`); 1 (the paper): the same noise over the horizon.
     """
 
     @checked
@@ -169,7 +172,9 @@ class SplineSpace:
         release_open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
         release_backoff: Annotated[float, Ge(0)] = 0.0,
         release_backoff_window: tuple[float, float] = (0.5, 1.5),
+        noise_ramp: Annotated[float, Gt(0)] = 1.0,
     ) -> None:
+        self.noise_ramp = float(noise_ramp)
         self.release_open_to = release_open_to
         self.release_backoff = float(release_backoff)
         self.release_backoff_window = _window("release_backoff_window", release_backoff_window)
@@ -297,6 +302,21 @@ class SplineSpace:
             out[spline.knots[: spline.num_control_points] >= last_contact - 1e-9] *= self.release_noise
         return out
 
+    def horizon_noise(
+        self, spline: UniformBSpline, window: np.ndarray, t: float, horizon: float
+    ) -> np.ndarray | None:
+        """(Mw, 1) the factor :attr:`noise_ramp` puts on the noise of the control points ``window``
+        (Mw,) when planning at control time ``t`` over ``horizon`` seconds: ``1 + (noise_ramp - 1) x``,
+        ``x`` the control point's Greville abscissa (the mean of its ``degree`` inner knots: where it
+        pulls the curve most) as a fraction of the horizon, clipped to [0, 1]; ``None`` for
+        ``noise_ramp`` 1."""
+        if self.noise_ramp == 1.0:
+            return None
+        k, knots = spline.degree, spline.knots
+        greville = np.array([knots[j + 1 : j + k + 1].mean() for j in window])
+        x = np.clip((greville - t) / horizon, 0.0, 1.0)
+        return (1.0 + (self.noise_ramp - 1.0) * x)[:, None]
+
     # --- evaluation ---------------------------------------------------------------------------
     def joint_control_points(self, theta: np.ndarray) -> np.ndarray:
         """Control points in joint space.
@@ -356,7 +376,8 @@ class PCASplineSpace(SplineSpace):
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window,
             release_window, release_pause, release_open, release_reset, release_noise,
-            release_open_to, release_backoff, release_backoff_window: see :class:`SplineSpace`.
+            release_open_to, release_backoff, release_backoff_window, noise_ramp: see
+            :class:`SplineSpace`.
     """
 
     pca: PCABasis
@@ -380,6 +401,7 @@ class PCASplineSpace(SplineSpace):
         release_open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
         release_backoff: Annotated[float, Ge(0)] = 0.0,
         release_backoff_window: tuple[float, float] = (0.5, 1.5),
+        noise_ramp: Annotated[float, Gt(0)] = 1.0,
     ) -> None:
         super().__init__(
             sigma2,
@@ -397,6 +419,7 @@ class PCASplineSpace(SplineSpace):
             release_backoff,
             release_backoff_window,
         )
+        self.noise_ramp = float(noise_ramp)
         self.basis = basis
         self.frozen_components = int(frozen_components)
 

@@ -29,7 +29,7 @@ from contactmpc.records import (
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
 from contactmpc.trial import PlantDiverged, Trial, check_planner_timing
-from contactmpc.validate import Ge, Gt, OneOf, checked
+from contactmpc.validate import ConfigError, Ge, Gt, OneOf, checked
 
 logger = logging.getLogger(__name__)
 
@@ -52,6 +52,9 @@ def run_trial(
     video: Annotated[str, OneOf("gif", "mp4")] | None = None,
     video_speed: Annotated[float, Gt(0)] = 1.0,
     perturbation: Perturbation | None = None,
+    start_time: Annotated[float, Ge(0)] | None = None,
+    start_before_contact: Annotated[float, Ge(0)] | None = None,
+    end_after_contact: Annotated[float, Gt(0)] | None = None,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -86,6 +89,14 @@ def run_trial(
         video_speed: playback speed of the video relative to control time.
         perturbation: plant-only changes drawn from the seed (:mod:`contactmpc.perturbations`); the
             drawn values go into the record (``perturbation``). ``None``: none.
+        start_time: start the trial at this control time (s), the plant at the reference's state there
+            (:class:`~contactmpc.trial.Trial`'s ``start_time``; the cheap screen): TTF, milestones and
+            errors are measured on what it logs, from there on; the record says ``start_time``.
+            ``None``: at 0, the whole trial.
+        start_before_contact: start that many seconds (control time) before the reference's first
+            expected contact instead (rounded to the plant's step); not with ``start_time``.
+        end_after_contact: end the trial that many seconds (control time) after the reference's first
+            expected contact instead of at ``duration``; not with ``duration``.
         config: the resolved config, stored in the record.
         labels: names of the config choices (task, hand, cost, sampler, planner) for the record.
 
@@ -99,6 +110,9 @@ def run_trial(
         scene = make_scene()
         check_planner_timing(scene, planner)  # before a reference is synthesised
         reference = get_reference(scene, reference_cache)
+        start, duration = screen_window(
+            scene, reference, start_time, start_before_contact, end_after_contact, duration
+        )
         trial = Trial(
             scene,
             reference,
@@ -110,7 +124,10 @@ def run_trial(
             duration,
             progress,
             perturbation,
+            start,
         )
+        if start:
+            record["start_time"] = start
         engine = getattr(planner, "engine", None)  # rollout threads (None: a planner without rollouts)
         record["threads"] = None if engine is None else engine.nthread
         loop0, cpu0 = time.perf_counter(), time.process_time()
@@ -165,6 +182,41 @@ def run_trial(
         record["real_time_factor"],
     )
     return path
+
+
+def screen_window(
+    scene: Scene,
+    reference,
+    start_time: float | None,
+    start_before_contact: float | None,
+    end_after_contact: float | None,
+    duration: float | None,
+) -> tuple[float, float | None]:
+    """The control times a trial starts and ends at, ``(start, duration)``, from :func:`run_trial`'s
+    options: ``start_before_contact`` and ``end_after_contact`` are counted from the reference's first
+    expected contact (its first frame with one, slowed), rounded to the plant's step.
+
+    Raises:
+        ConfigError: both ways of giving the start (or the end) are set, or the reference expects no
+            contact to count from.
+    """
+    if start_time is not None and start_before_contact is not None:
+        raise ConfigError("job.start_time and job.start_before_contact are both set: choose one")
+    if duration is not None and end_after_contact is not None:
+        raise ConfigError("duration and job.end_after_contact are both set: choose one")
+    start = 0.0 if start_time is None else float(start_time)
+    if start_before_contact is None and end_after_contact is None:
+        return start, duration
+    touching = np.flatnonzero(np.asarray(reference.contact_active).any(axis=-1))
+    if not touching.size:
+        raise ConfigError("job.start_before_contact / end_after_contact: the reference expects no contact")
+    first = float(reference.time[touching[0]] - reference.time[0]) * scene.task.time_scale
+    dt = scene.plant_model.opt.timestep
+    if start_before_contact is not None:
+        start = max(0.0, round((first - start_before_contact) / dt) * dt)
+    if end_after_contact is not None:
+        duration = round((first + end_after_contact) / dt) * dt
+    return start, duration
 
 
 def record_failure(
@@ -252,7 +304,7 @@ def summarize(
             min_expected,
         )
     plan = series["plan_seconds"]
-    sim = float(trial.duration) if diverged_time is None else float(diverged_time)
+    sim = (float(trial.duration) if diverged_time is None else float(diverged_time)) - trial.start_time
     final_err = trial.scene.task.layout.error(series["object_qpos"][-1], trial.track.object_qpos[-1])
     task = trial.scene.task
     expected = series["expected_object_qpos"]
