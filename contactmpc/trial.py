@@ -90,6 +90,10 @@ class Trial:
         progress: show a progress bar.
         perturbation: plant-only changes drawn from the seed (:mod:`contactmpc.perturbations`);
             ``None`` is none. The draw is :attr:`draw` once :meth:`run` has started.
+        start_time: control time (s) the trial starts at (a whole number of plant steps, before
+            ``duration``): the plant starts at the reference's state there (the hand at the committed
+            policy's targets at that time, the object at the reference's configuration, at rest) and
+            the loop's clock starts there; 0: the whole trial.
     """
 
     @checked
@@ -105,8 +109,10 @@ class Trial:
         duration: Annotated[float, Gt(0)] | None = None,
         progress: bool = True,
         perturbation: Perturbation | None = None,
+        start_time: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         self.scene, self.reference, self.planner = scene, reference, planner
+        self.start_time = float(start_time)
         self.perturbation = Perturbation() if perturbation is None else perturbation
         self.plant: Plant | None = None
         self.seed = int(seed)
@@ -123,6 +129,13 @@ class Trial:
         planner.bind(self.problem)
         self.latency = planner.latency_for(plant_dt)  # a modelled one lies on the plant's grid
         self.replan_interval = max(planner.replan_period, self.latency)
+        if self.start_time:
+            if abs(self.start_time - round(self.start_time / plant_dt) * plant_dt) > TIMING_TOLERANCE:
+                raise ConfigError(f"start_time = {self.start_time:g} s is not a whole number of plant steps")
+            if self.start_time >= self.duration:
+                raise ConfigError(
+                    f"start_time = {self.start_time:g} s is not before the trial's end ({self.duration:g} s)"
+                )
 
     def run(self, snapshots: tuple[float, ...] = ()) -> TrialLog:
         """Simulate the closed loop for ``duration`` seconds of control time.
@@ -146,16 +159,21 @@ class Trial:
         lag = int(round(self.latency / dt))  # plant steps on the previous plan after each replan
         n_steps = int(round(self.duration / dt))
         state = np.empty(plant.state_size())
+        first = int(round(self.start_time / dt))  # the first step: the loop's clock starts there
         earlier = None  # the state of one replan period earlier (draw.delay)
         pending = sorted(float(v) for v in snapshots)
         self.snapshots: dict[float, np.ndarray] = {}
         log = TrialLog()
         offsets = np.arange(per_plan) * dt
         bar = tqdm(
-            total=n_steps, desc=f"{scene.task.name}", unit="step", disable=not self.progress, leave=False
+            total=n_steps - first,
+            desc=f"{scene.task.name}",
+            unit="step",
+            disable=not self.progress,
+            leave=False,
         )
         try:
-            for k in range(0, n_steps, per_plan):
+            for k in range(first, n_steps, per_plan):
                 t = k * dt
                 plant.state(t, out=state)  # rollouts run on the control clock
                 while pending and t >= pending[0] - 1e-9:
@@ -189,7 +207,7 @@ class Trial:
         ``(time (N,), expected_contacts (N, L))``, as :meth:`run`'s log has them."""
         dt = self.scene.plant_model.opt.timestep
         per_plan = int(round(self.replan_interval / dt))
-        time = np.arange(0, int(round(self.duration / dt)), per_plan) * dt
+        time = np.arange(int(round(self.start_time / dt)), int(round(self.duration / dt)), per_plan) * dt
         return time, self.track.contact_active[[self.track.index(t) for t in time]]
 
     # --- the plant, shared with the wall-clock loop (contactmpc.online) -------------------------
@@ -201,9 +219,14 @@ class Trial:
     def start_plant(self) -> Plant:
         """Make the trial's :class:`~contactmpc.plant.Plant` (:attr:`plant`) and start it: the perturbation
         drawn from the seed, the hand at the committed policy's first targets, the object at the task's
-        start (moved by the draw)."""
+        start (moved by the draw); with :attr:`start_time`, the hand at the policy's targets then and
+        the object at the reference's configuration then (the task's start offset and the draw applied
+        as at t = 0), at rest."""
         scene = self.scene
         plant = self.plant = Plant(scene, self.track, self.perturbation, self.seed, self.duration)
-        hand0 = self.planner.targets(np.array([0.0]))[0]
-        plant.start(hand0, scene.task.start_object_qpos(self.reference.object_qpos[0]))
+        hand0 = self.planner.targets(np.array([self.start_time]))[0]
+        qo = self.reference.object_qpos[0]
+        if self.start_time:  # the reference's object where the trial starts
+            qo = self.track.object_qpos[self.track.index(self.start_time)]
+        plant.start(hand0, scene.task.start_object_qpos(qo))
         return plant

@@ -159,6 +159,7 @@ def _trial_and_series(release: float, knocked: bool):
     track = SimpleNamespace(object_qpos=np.vstack([ref, ref[-1:]]), contact_active=expected[[-1]])
     trial = SimpleNamespace(
         duration=float(t[-1]),
+        start_time=0.0,
         scene=SimpleNamespace(task=task),
         track=track,
         spline=SimpleNamespace(num_control_points=10),

@@ -24,7 +24,7 @@ import numpy as np
 from contactmpc.control.release import ReleaseSchedule, time_window
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis, PCACurves
-from contactmpc.validate import Ge, OneOf, checked
+from contactmpc.validate import Ge, Gt, OneOf, checked
 
 
 class SplineSpace:
@@ -45,6 +45,9 @@ class SplineSpace:
         release: what the nominal and the noise do after the reference's last expected contact,
             where it lets go (:class:`~contactmpc.control.release.ReleaseSchedule`); ``None`` (the
             paper): the same as before it.
+        noise_ramp: the noise grows along the planning horizon, linearly from 1x at the planning time
+            to this factor at the horizon's end, at each control point's Greville abscissa (judo's
+            noise ramp, :meth:`horizon_noise`); 1 (the paper): the same noise over the horizon.
     """
 
     @checked
@@ -57,7 +60,9 @@ class SplineSpace:
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
         release: ReleaseSchedule | None = None,
+        noise_ramp: Annotated[float, Gt(0)] = 1.0,
     ) -> None:
+        self.noise_ramp = float(noise_ramp)
         self.release = ReleaseSchedule() if release is None else release
         self.root_window = time_window("sampler.root_window", root_window)
         self.sigma2 = float(sigma2)
@@ -166,6 +171,21 @@ class SplineSpace:
             out[spline.knots[: spline.num_control_points] >= last_contact - 1e-9] *= release_noise
         return out
 
+    def horizon_noise(
+        self, spline: UniformBSpline, window: np.ndarray, t: float, horizon: float
+    ) -> np.ndarray | None:
+        """(Mw, 1) the factor :attr:`noise_ramp` puts on the noise of the control points ``window``
+        (Mw,) when planning at control time ``t`` over ``horizon`` seconds: ``1 + (noise_ramp - 1) x``,
+        ``x`` the control point's Greville abscissa (the mean of its ``degree`` inner knots: where it
+        pulls the curve most) as a fraction of the horizon, clipped to [0, 1]; ``None`` for
+        ``noise_ramp`` 1."""
+        if self.noise_ramp == 1.0:
+            return None
+        k, knots = spline.degree, spline.knots
+        greville = np.array([knots[j + 1 : j + k + 1].mean() for j in window])
+        x = np.clip((greville - t) / horizon, 0.0, 1.0)
+        return (1.0 + (self.noise_ramp - 1.0) * x)[:, None]
+
     # --- evaluation ---------------------------------------------------------------------------
     def joint_control_points(self, theta: np.ndarray) -> np.ndarray:
         """Control points in joint space.
@@ -223,7 +243,8 @@ class PCASplineSpace(SplineSpace):
         frozen_components: the first this many PCs get no noise. The authors' code lays its noise out
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
-        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window, release: see
+        sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window, release,
+            noise_ramp: see
             :class:`SplineSpace`.
     """
 
@@ -241,6 +262,7 @@ class PCASplineSpace(SplineSpace):
         root_rotation_sigma2: Annotated[float, Ge(0)] | None = None,
         root_window: tuple[float, float] | None = None,
         release: ReleaseSchedule | None = None,
+        noise_ramp: Annotated[float, Gt(0)] = 1.0,
     ) -> None:
         super().__init__(
             sigma2,
@@ -251,6 +273,7 @@ class PCASplineSpace(SplineSpace):
             root_window,
             release,
         )
+        self.noise_ramp = float(noise_ramp)
         self.basis = basis
         self.frozen_components = int(frozen_components)
 

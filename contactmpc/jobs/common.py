@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
+
 from contactmpc.config import Inputs
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
@@ -28,7 +30,7 @@ from contactmpc.records import (
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
 from contactmpc.trial import PlantDiverged, Trial, check_planner_timing
-from contactmpc.validate import Ge, Gt, checked
+from contactmpc.validate import ConfigError, Ge, Gt, checked
 
 
 @dataclass(frozen=True)
@@ -72,17 +74,24 @@ TrialInputs.__init__ = checked(TrialInputs.__init__)
 
 
 def build_trial(
-    make_scene: Callable[[], Scene], seed: int, inputs: TrialInputs, progress: bool | None = None
+    make_scene: Callable[[], Scene],
+    seed: int,
+    inputs: TrialInputs,
+    progress: bool | None = None,
+    window: tuple[float | None, float | None, float | None] = (None, None, None),
 ) -> Trial:
     """Build the scene, check the planner's timing on it (before a reference is synthesised), get the
     reference and build the :class:`~contactmpc.trial.Trial` of ``inputs``.
 
     Args:
         progress: the trial's own progress bar; ``None``: ``inputs.progress``.
+        window: ``(start_time, start_before_contact, end_after_contact)``: where the trial starts and
+            ends (:func:`screen_window`); all ``None``: the whole trial.
     """
     scene = make_scene()
     check_planner_timing(scene, inputs.planner)
     reference = get_reference(scene, inputs.reference_cache)
+    start, duration = screen_window(scene, reference, *window, inputs.duration)
     return Trial(
         scene,
         reference,
@@ -91,10 +100,46 @@ def build_trial(
         inputs.planner,
         seed,
         inputs.num_control_points,
-        inputs.duration,
+        duration,
         inputs.progress if progress is None else progress,
         inputs.perturbation,
+        start,
     )
+
+
+def screen_window(
+    scene: Scene,
+    reference,
+    start_time: float | None,
+    start_before_contact: float | None,
+    end_after_contact: float | None,
+    duration: float | None,
+) -> tuple[float, float | None]:
+    """The control times a trial starts and ends at, ``(start, duration)``: ``start_before_contact``
+    and ``end_after_contact`` are counted from the reference's first expected contact (its first frame
+    with one, slowed), rounded to the plant's step.
+
+    Raises:
+        ConfigError: both ways of giving the start (or the end) are set, or the reference expects no
+            contact to count from.
+    """
+    if start_time is not None and start_before_contact is not None:
+        raise ConfigError("job.start_time and job.start_before_contact are both set: choose one")
+    if duration is not None and end_after_contact is not None:
+        raise ConfigError("duration and job.end_after_contact are both set: choose one")
+    start = 0.0 if start_time is None else float(start_time)
+    if start_before_contact is None and end_after_contact is None:
+        return start, duration
+    touching = np.flatnonzero(np.asarray(reference.contact_active).any(axis=-1))
+    if not touching.size:
+        raise ConfigError("job.start_before_contact / end_after_contact: the reference expects no contact")
+    first = float(reference.time[touching[0]] - reference.time[0]) * scene.task.time_scale
+    dt = scene.plant_model.opt.timestep
+    if start_before_contact is not None:
+        start = max(0.0, round((first - start_before_contact) / dt) * dt)
+    if end_after_contact is not None:
+        duration = round((first + end_after_contact) / dt) * dt
+    return start, duration
 
 
 def new_record(seed: int, labels: dict | None) -> dict:

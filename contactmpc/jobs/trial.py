@@ -37,6 +37,9 @@ def run_trial(
     inputs: TrialInputs,
     video: Annotated[str, OneOf("gif", "mp4")] | None = None,
     video_speed: Annotated[float, Gt(0)] = 1.0,
+    start_time: Annotated[float, Ge(0)] | None = None,
+    start_before_contact: Annotated[float, Ge(0)] | None = None,
+    end_after_contact: Annotated[float, Gt(0)] | None = None,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -59,6 +62,14 @@ def run_trial(
         video: ``"gif"`` or ``"mp4"`` to render the trial next to its record (``trial.<ext>``);
             ``None`` renders nothing.
         video_speed: playback speed of the video relative to control time.
+        start_time: start the trial at this control time (s), the plant at the reference's state there
+            (:class:`~contactmpc.trial.Trial`'s ``start_time``; the cheap screen): TTF, milestones and
+            errors are measured on what it logs, from there on; the record says ``start_time``.
+            ``None``: at 0, the whole trial.
+        start_before_contact: start that many seconds (control time) before the reference's first
+            expected contact instead (rounded to the plant's step); not with ``start_time``.
+        end_after_contact: end the trial that many seconds (control time) after the reference's first
+            expected contact instead of at ``duration``; not with ``duration``.
         config: the resolved config, stored in the record.
         labels: names of the config choices (task, hand, cost, sampler, planner, ...) for the record.
 
@@ -73,7 +84,11 @@ def run_trial(
     running = RunningTrials()
     try:
         with running:
-            trial = build_trial(make_scene, seed, inputs)
+            trial = build_trial(
+                make_scene, seed, inputs, window=(start_time, start_before_contact, end_after_contact)
+            )
+            if trial.start_time:
+                record["start_time"] = trial.start_time
             scene = trial.scene
             engine = getattr(planner, "engine", None)  # rollout threads (None: a planner without rollouts)
             record["threads"] = None if engine is None else engine.nthread
@@ -171,7 +186,7 @@ def summarize(
             min_expected,
         )
     plan = series["plan_seconds"]
-    sim = float(trial.duration) if diverged_time is None else float(diverged_time)
+    sim = (float(trial.duration) if diverged_time is None else float(diverged_time)) - trial.start_time
     final_err = trial.scene.task.layout.error(series["object_qpos"][-1], trial.track.object_qpos[-1])
     task = trial.scene.task
     expected = series["expected_object_qpos"]

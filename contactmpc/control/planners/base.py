@@ -37,9 +37,10 @@ class PlanInfo:
         best_cost: lowest cumulative cost among the samples (NaN without rollouts).
         terms: cumulative cost terms of the committed (best) sample, by the cost's term names (NaN
             without rollouts).
-        num_diverged: samples whose rollout diverged.
+        num_diverged: samples whose rollout diverged (over all the iterations).
         window: (Mw,) indices of the control points that could change.
         seconds: wall time of the iteration.
+        iterations: sampling iterations it ran (``planner.iterations``, fewer when it stopped early).
     """
 
     time: float
@@ -49,6 +50,7 @@ class PlanInfo:
     num_diverged: int = 0
     window: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     seconds: float = 0.0
+    iterations: int = 1
 
 
 class Planner:
@@ -70,9 +72,17 @@ class Planner:
             8 CPUs on a 64-core node starts 8.
         robust: score every candidate under an ensemble of randomised planning models and a risk
             measure (:class:`~contactmpc.control.robust.ModelEnsemble`); ``None``: the nominal model.
+        iterations: sampling iterations per plan (SPIDER, DIAL-MPC): each samples around the nominal
+            the last one committed, from the same state; the latency model charges them all. 1 (the
+            paper): one.
+        anneal: the noise of iteration ``i`` (from 0) is the sampler's times ``anneal ** (i /
+            iterations)`` (SPIDER: 0.1); 1: the same noise in every iteration.
+        early_stop: stop iterating once an iteration improves the cost by less than this fraction of
+            its nominal's (SPIDER: 0.01); 0: run every iteration.
     """
 
     needs_rollouts = True
+    extra_rollouts = 0  # rollouts an iteration runs besides its samples (see :meth:`rollouts_per_plan`)
 
     @checked
     def __init__(
@@ -84,6 +94,9 @@ class Planner:
         robust: ModelEnsemble | None = None,
         latency: Annotated[float, Ge(0)] = 0.0,
         latency_model: ComputeLatency | None = None,
+        iterations: Annotated[int, Ge(1)] = 1,
+        anneal: Annotated[float, Gt(0)] = 1.0,
+        early_stop: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -99,6 +112,10 @@ class Planner:
         self.replan_period = float(replan_period)
         self.nthread = nthread
         self.engine: RolloutEngine | None = None
+        self.iterations = int(iterations)
+        self.anneal = float(anneal)
+        self.early_stop = float(early_stop)
+        self._noise_scale: np.ndarray | None = None  # (Mw, 1) factor on the noise being drawn, or None
 
     # --- the two methods a planner implements ------------------------------------------------
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
@@ -147,12 +164,18 @@ class Planner:
 
     def latency_for(self, plant_timestep: float) -> float:
         """The planning latency (s) a trial applies: ``latency``, or the model's price of one iteration
-        (its rollouts: samples x the robust ensemble's models; none for a planner without rollouts).
-        Needs :meth:`bind` (the horizon's steps)."""
+        (its rollouts, :meth:`rollouts_per_plan`). Needs :meth:`bind` (the horizon's steps)."""
         if self.latency_model is None:
             return self.latency
-        rollouts = self.num_samples * (len(self._models) if self._models else 1) if self.needs_rollouts else 0
-        return self.latency_model.seconds(rollouts, self.steps, plant_timestep)
+        return self.latency_model.seconds(self.rollouts_per_plan(), self.steps, plant_timestep)
+
+    def rollouts_per_plan(self) -> int:
+        """The rollouts one plan runs at most: ``iterations x (samples + extra_rollouts)`` x the robust
+        ensemble's models; 0 for a planner without rollouts."""
+        if not self.needs_rollouts:
+            return 0
+        per_iteration = self.num_samples + self.extra_rollouts
+        return self.iterations * per_iteration * (len(self._models) if self._models else 1)
 
     def close(self) -> None:
         """Release the rollout threads."""
@@ -219,8 +242,11 @@ class Planner:
             diverged = diverged.reshape(num_models, num_cand).any(axis=0)
         return total, terms, diverged
 
-    def candidates(self, rng: np.random.Generator, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The candidate batch of a planning iteration at control time ``t``.
+    def candidates(
+        self, rng: np.random.Generator, t: float, iteration: int = 0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The candidate batch of a planning iteration at control time ``t`` (``iteration``: which of the
+        plan's, for :meth:`noise_scale`).
 
         Returns:
             window: (Mw,) indices of the control points whose support meets ``[t, t + horizon]``;
@@ -228,6 +254,7 @@ class Planner:
             thetas: (S, M, d) full control-point sets: the nominal with the window replaced.
         """
         window = self.problem.spline.window_indices(t, self.horizon)
+        self._noise_scale = self.noise_scale(t, window, iteration)
         candidates = self.sample(rng, self.theta[window], window)
         thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
         thetas[:, window] = candidates
@@ -248,19 +275,65 @@ class Planner:
             window = self.problem.spline.window_indices(t, self.horizon)
             terms = {k: float("nan") for k in self.problem.cost.terms}
             return PlanInfo(time=t, window=window, terms=terms, seconds=time.perf_counter() - start)
-        window, candidates, thetas = self.candidates(rng, t)
-        total, terms, diverged = self.evaluate(state, t, thetas)
-        best = int(np.argmin(total))
-        self.theta[window] = self.update(candidates, total, window)
+        num_diverged, nominal_cost = 0, float("nan")
+        for i in range(self.iterations):
+            window, candidates, thetas = self.candidates(rng, t, i)
+            total, terms, diverged = self.evaluate(state, t, thetas)
+            if i == 0:
+                nominal_cost = float(total[0])
+            self.theta[window], best_cost, best_terms = self.commit(
+                state, t, window, candidates, total, terms
+            )
+            num_diverged += int(diverged.sum())
+            if self.early_stop and improvement(float(total[0]), best_cost) < self.early_stop:
+                break
         return PlanInfo(
             time=t,
             window=window,
-            nominal_cost=float(total[0]),
-            best_cost=float(total[best]),
-            terms={k: float(v[best]) for k, v in terms.items()},
-            num_diverged=int(diverged.sum()),
+            nominal_cost=nominal_cost,
+            best_cost=best_cost,
+            terms=best_terms,
+            num_diverged=num_diverged,
             seconds=time.perf_counter() - start,
+            iterations=i + 1,
         )
+
+    def commit(
+        self,
+        state: np.ndarray,
+        t: float,
+        window: np.ndarray,
+        candidates: np.ndarray,
+        total: np.ndarray,
+        terms: dict,
+    ) -> tuple[np.ndarray, float, dict[str, float]]:
+        """What an iteration commits from its scored candidates (``state``, ``t``: where it planned, for
+        a planner that rolls out its update, :class:`~contactmpc.control.planners.PredictiveSampling`).
+
+        Returns:
+            ``(theta_window (Mw, d), cost, terms)``: :meth:`update`'s control points, and the cumulative
+            cost and cost terms of the cheapest sample.
+        """
+        best = int(np.argmin(total))
+        return (
+            self.update(candidates, total, window),
+            float(total[best]),
+            {k: float(v[best]) for k, v in terms.items()},
+        )
+
+    def noise_scale(self, t: float, window: np.ndarray, iteration: int = 0) -> np.ndarray | None:
+        """(Mw, 1) the factor on the sampling noise of the window's control points in a plan's
+        ``iteration`` at control time ``t``: ``anneal ** (iteration / iterations)`` times the sampler's
+        ramp along the horizon (:meth:`~contactmpc.control.samplers.SplineSpace.horizon_noise`);
+        ``None`` where it is 1 everywhere."""
+        space = self.problem.space
+        ramp = None
+        if getattr(space, "noise_ramp", 1.0) != 1.0:  # (a duck-typed space may have no ramp)
+            ramp = space.horizon_noise(self.problem.spline, window, t, self.horizon)
+        if not iteration or self.anneal == 1.0:
+            return ramp
+        factor = self.anneal ** (iteration / self.iterations)
+        return np.full((len(window), 1), factor) if ramp is None else factor * ramp
 
     def release(self) -> np.ndarray:
         """Put the committed control points whose support meets the rest of the trial after the
@@ -282,6 +355,18 @@ class Planner:
         return self.noise_std if self.noise_std.ndim == 1 else self.noise_std[window]
 
     def gaussian(self, rng: np.random.Generator, nominal: np.ndarray, std: np.ndarray) -> np.ndarray:
-        """(S, Mw, d) samples: row 0 the nominal, the rest ``nominal + std * N(0, 1)``."""
+        """(S, Mw, d) samples: row 0 the nominal, the rest ``nominal + std * N(0, 1)``, the noise times
+        :meth:`noise_scale`'s factor where there is one."""
         noise = rng.standard_normal((self.num_samples - 1,) + nominal.shape) * std
+        if self._noise_scale is not None:
+            noise *= self._noise_scale
         return np.concatenate([nominal[None], nominal[None] + noise], axis=0)
+
+
+def improvement(before: float, after: float) -> float:
+    """The fraction by which the cost went down from ``before`` to ``after``: ``(before - after) /
+    |before|``; ``inf`` from a diverged (infinite) cost to a finite one, 0 where neither is finite or
+    ``before`` is 0."""
+    if not np.isfinite(before):
+        return float("inf") if np.isfinite(after) else 0.0
+    return (before - after) / abs(before) if before else 0.0

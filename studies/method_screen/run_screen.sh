@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The cheap screen of the method levers (issue 33): each lever on the paper's stapler and bottle at
+# preset=paper_32samples (text's reading), a trial started 3 s before the reference's first expected
+# contact and ended 4 s after it (job.start_before_contact / job.end_after_contact), seeds 0-5, one trial
+# at a time. Seeds vary slowest (a sweep stopped early holds every lever at the seeds it reached);
+# resumable: launch.py skips finished records in the same directory.
+#   nohup nice -n 15 studies/method_screen/run_screen.sh > outputs/method_screen.log 2>&1 &
+#   python studies/method_screen/table.py studies/method_screen/records
+set -u
+cd "$(dirname "$0")/../.."
+OUT=${OUT:-studies/method_screen/records}
+PY=${PY:-python}
+COMMON=(preset=paper_32samples fidelity=paper planner.nthread=1 job.progress=false
+        job.start_before_contact=3.0 job.end_after_contact=4.0 hydra/launcher=basic
+        "hydra.sweep.dir=$OUT" task=paper_stapler,paper_bottle)
+LEVERS=(
+  "variant=full"
+  "variant=wrist_clearance"
+  "variant=full planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01"
+  "variant=full planner.update=elite_softmax"
+  "variant=full sampler.noise_ramp=4.0"
+  "variant=full planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01 planner.update=elite_softmax sampler.noise_ramp=4.0"
+)
+for seed in ${SEEDS:-0 1 2 3 4 5}; do
+  for lever in "${LEVERS[@]}"; do
+    # shellcheck disable=SC2086  (a lever is several overrides)
+    "$PY" launch.py -m "${COMMON[@]}" $lever "seed=$seed" || true
+  done
+done

@@ -1,0 +1,187 @@
+"""The method levers (issue 33): the cheap screen (a trial that starts late) and the planner's levers
+(iterations with annealed noise and early stopping, the elite-weighted update, the noise ramp along the
+horizon). Off: the plan or trial of before, bit for bit; on: a property."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from contactmpc.control.cost import TrackingCost
+from contactmpc.control.latency import ComputeLatency
+from contactmpc.control.planners import CEM, PredictiveSampling
+from contactmpc.control.planners.base import improvement
+from contactmpc.control.samplers import PCASplineSpace
+from contactmpc.trial import Trial
+from contactmpc.validate import ConfigError
+from tests.helpers import PointMassProblem, static_reference
+from tests.test_trial import TINY, run_job
+
+
+def _paper_plan(planner, problem, t, rng):
+    """The plan of before the levers, written out: Gaussian samples around the nominal (row 0 the nominal),
+    the cheapest rollout committed. Returns the committed control points."""
+    window = problem.spline.window_indices(t, planner.horizon)
+    nominal = planner.theta[window]
+    noise = rng.standard_normal((planner.num_samples - 1,) + nominal.shape) * planner.window_std(window)
+    candidates = np.concatenate([nominal[None], nominal[None] + noise], axis=0)
+    thetas = np.broadcast_to(planner.theta, (len(candidates),) + planner.theta.shape).copy()
+    thetas[:, window] = candidates
+    total, _, _ = planner.evaluate(problem.state, t, thetas)
+    out = planner.theta.copy()
+    out[window] = candidates[int(np.argmin(total))]
+    return out
+
+
+def test_levers_off_plan_as_before_bit_for_bit():
+    problem = PointMassProblem(sigma=0.4)
+    off = PredictiveSampling(
+        num_samples=16, horizon=1.0, iterations=1, anneal=1.0, early_stop=0.0, update="max"
+    )
+    problem.bind(off)
+    expected = _paper_plan(off, problem, 0.0, np.random.default_rng(5))
+    off.plan(0.0, problem.state, np.random.default_rng(5))
+    np.testing.assert_array_equal(off.theta, expected)
+    assert off.rollouts_per_plan() == 16
+    problem.engine.close()
+
+
+def test_elite_softmax_never_costs_more_than_max_selection_on_the_same_candidates():
+    problem = PointMassProblem(sigma=0.5)
+    elite = PredictiveSampling(num_samples=20, horizon=1.0, update="elite_softmax", elite_fraction=0.2)
+    greedy = PredictiveSampling(num_samples=20, horizon=1.0)
+    problem.bind(elite)
+    problem.bind(greedy)
+    used_mean = 0
+    for seed in range(8):
+        a = elite.plan(0.0, problem.state, np.random.default_rng(seed))
+        b = greedy.plan(0.0, problem.state, np.random.default_rng(seed))
+        assert a.best_cost <= b.best_cost
+        used_mean += a.best_cost < b.best_cost
+        greedy.theta[:] = elite.theta  # both go on from the same nominal: the same candidates again
+    assert used_mean > 0  # the mean was committed at least once (else the property says nothing)
+    assert elite.rollouts_per_plan() == 21
+    problem.engine.close()
+
+
+def test_iterations_anneal_the_noise_stop_early_and_are_charged():
+    problem = PointMassProblem(sigma=0.4)
+    planner = PredictiveSampling(num_samples=8, horizon=1.0, iterations=4, anneal=0.1)
+    problem.bind(planner)
+    window = problem.spline.window_indices(0.0, 1.0)
+    assert planner.noise_scale(0.0, window, 0) is None
+    np.testing.assert_allclose(planner.noise_scale(0.0, window, 2), 0.1**0.5)
+    info = planner.plan(0.0, problem.state, np.random.default_rng(0))
+    assert info.iterations == 4 and info.best_cost <= info.nominal_cost
+    assert planner.rollouts_per_plan() == 32
+    assert planner.latency_for(0.001) == 0.0  # no latency model: the fixed latency
+    model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
+    # early stop: a threshold no iteration can reach stops after the first
+    stop = PredictiveSampling(num_samples=8, horizon=1.0, iterations=4, early_stop=10.0)
+    problem.bind(stop)
+    assert stop.plan(0.0, problem.state, np.random.default_rng(0)).iterations == 1
+    charged = PredictiveSampling(num_samples=8, horizon=1.0, iterations=4, latency_model=model)
+    single = PredictiveSampling(num_samples=8, horizon=1.0, latency_model=model)
+    for p in (charged, single):
+        problem.bind(p)
+    assert charged.latency_for(0.001) == pytest.approx(model.seconds(32, charged.steps, 0.001))
+    assert charged.latency_for(0.001) > single.latency_for(0.001)
+    assert improvement(2.0, 1.0) == 0.5 and improvement(np.inf, 1.0) == np.inf
+    assert improvement(np.inf, np.inf) == 0.0
+    problem.engine.close()
+
+
+def test_iterations_with_cem_run():
+    problem = PointMassProblem(sigma=0.4)
+    planner = CEM(num_samples=8, num_elites=3, horizon=1.0, iterations=3, anneal=0.1)
+    problem.bind(planner)
+    info = planner.plan(0.0, problem.state, np.random.default_rng(0))
+    assert info.iterations == 3 and np.isfinite(info.best_cost)
+    problem.engine.close()
+
+
+def test_noise_ramp_grows_along_the_horizon(scene_for):
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=4.0, frames=41)
+    space = PCASplineSpace(0.2, noise_ramp=4.0)
+    planner = PredictiveSampling(num_samples=400, horizon=2.0, nthread=1)
+    trial = Trial(scene, ref, space, TrackingCost(), planner, 0, num_control_points=16, progress=False)
+    spline = trial.spline
+    window = spline.window_indices(1.0, 2.0)
+    scale = space.horizon_noise(spline, window, 1.0, 2.0)[:, 0]
+    greville = np.array([spline.knots[j + 1 : j + spline.degree + 1].mean() for j in window])
+    np.testing.assert_allclose(scale, 1 + 3 * np.clip((greville - 1.0) / 2.0, 0, 1))
+    assert scale[0] == 1.0 and scale[-1] == 4.0 and np.all(np.diff(scale) >= 0)
+    # the drawn noise follows it: its spread per control point over the samples
+    planner._noise_scale = planner.noise_scale(1.0, window)
+    cands = planner.sample(np.random.default_rng(0), planner.theta[window], window)
+    std = planner.window_std(window)
+    spread = ((cands[1:] - cands[0])[..., std > 0] / std[std > 0]).std(axis=(0, 2))
+    np.testing.assert_allclose(spread, scale, rtol=0.1)  # 399 x d draws each: ~4 % sampling error
+    assert PCASplineSpace(0.2).horizon_noise(spline, window, 1.0, 2.0) is None
+    planner.close()
+
+
+@pytest.fixture(scope="module")
+def late_contact_reference(tmp_path_factory, scene_for):
+    """A short reference of the synthetic apple whose object rises and whose contacts start at frame 4."""
+    ref = static_reference(scene_for("apple"), duration=1.0, frames=11)
+    ref.object_qpos[:, 2] += np.linspace(0.0, 0.05, 11)
+    ref.contact_active[:4] = False
+    return ref, str(ref.save(tmp_path_factory.mktemp("late") / "apple.npz"))
+
+
+def test_a_late_start_puts_the_plant_at_the_references_state(scene_for, late_contact_reference):
+    scene, ref = scene_for("apple"), late_contact_reference[0]
+    planner = PredictiveSampling(num_samples=4, horizon=0.1, replan_period=0.05, nthread=1)
+    trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False, start_time=0.3)
+    d = trial.start_plant().data
+    np.testing.assert_array_equal(scene.hand_qpos(d), planner.targets(np.array([0.3]))[0])
+    expected = trial.track.object_qpos[trial.track.index(0.3)]
+    np.testing.assert_array_equal(scene.object_qpos(d), expected)
+    assert expected[2] > ref.object_qpos[0, 2] + 0.001  # (the object has moved by then)
+    assert not d.qvel.any()
+    with pytest.raises(ConfigError, match="not before the trial's end"):
+        Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.3, start_time=0.3)
+    planner.close()
+
+
+def test_a_trial_started_late_runs_and_off_is_the_whole_trial(tmp_path, late_contact_reference):
+    overrides = ["task=apple", f"task.reference_path={late_contact_reference[1]}", *TINY]
+    overrides += ["job.progress=false", "duration=0.6"]
+    base = run_job(overrides, tmp_path / "base")
+    same = run_job(overrides + ["job.start_time=0"], tmp_path / "zero")
+    a, b = (np.load(p.parent / "timeseries.npz") for p in (base, same))
+    for key in a.files:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    late = run_job(overrides + ["job.start_time=0.3"], tmp_path / "late")
+    record = json.loads(late.read_text())
+    assert record["status"] == "ok" and record["start_time"] == 0.3
+    assert "start_time" not in json.loads(base.read_text())
+    assert record["simulated_seconds"] == pytest.approx(0.3)
+    series = np.load(late.parent / "timeseries.npz")
+    np.testing.assert_allclose(series["time"], [0.3, 0.35, 0.4, 0.45, 0.5, 0.55])
+    np.testing.assert_array_equal(series["object_qpos"][0], series["expected_object_qpos"][0])
+
+
+def test_start_and_end_relative_to_the_first_contact(tmp_path, late_contact_reference):
+    overrides = [
+        "task=apple",
+        f"task.reference_path={late_contact_reference[1]}",
+        *TINY,
+        "job.progress=false",
+    ]
+    record = json.loads(
+        run_job(
+            overrides + ["job.start_before_contact=0.1", "job.end_after_contact=0.1"], tmp_path
+        ).read_text()
+    )
+    assert record["status"] == "ok"
+    first = record["contact_span_start"]
+    assert record["start_time"] == pytest.approx(first - 0.1, abs=0.06)
+    assert record["simulated_seconds"] == pytest.approx(0.2, abs=0.06)
+    with pytest.raises(ConfigError, match="both set"):
+        run_job(overrides + ["job.start_time=1", "job.start_before_contact=1"], tmp_path / "both")
