@@ -142,6 +142,18 @@ def steps_per_second(samples: int, horizon: float, interval: float, planner_dt: 
     return samples * max(1, round(horizon / planner_dt)) / interval
 
 
+def at_point(df: pd.DataFrame, point: tuple) -> pd.Series:
+    """Which rows of ``df`` (:func:`points`) are at ``point``, ``(samples, horizon, interval, latency)``
+    (the interval and latency to the millisecond)."""
+    s, h, i, lat = point
+    return (
+        (df["samples"] == s)
+        & (df["horizon"] == h)
+        & (df["interval"].round(3) == round(i, 3))
+        & (df["latency"].round(3) == round(lat, 3))
+    )
+
+
 #: The map's keys: a point of one task, variant and reading.
 POINT_KEYS = ["task", "variant", "fidelity", "samples", "horizon", "interval", "latency"]
 #: Per point (:func:`summary`): column -> how it is reduced over the point's trials.

@@ -33,6 +33,7 @@ from analysis._cli import run, sweep_parser
 from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, load_records, ok_trials, ordered
 from analysis.figures import VARIANT_COLORS, VARIANT_LABELS
 from analysis.report import significance_tests, summary_table
+from analysis.summarize import pipe_table
 from contactmpc.records import RECORD_NAME
 
 FIDELITY_DIR = Path(__file__).resolve().parent.parent / "conf" / "fidelity"
@@ -395,44 +396,52 @@ def _pv(p: float, testable: bool = True) -> str:
     return f"{p:.3g}" if testable else f"{p:.3g}*"
 
 
+#: The columns of :func:`ttf_tests_markdown`.
+TTF_TEST_COLUMNS = (
+    "task", "fidelity", "ablation", "n full / ablation", "median TTF % full / ablation", "U", "p", "Holm p",
+    "smallest attainable p", "P(full > ablation) [95 % CI]", "HL shift, TTF % [95 % CI]", "test",
+)  # fmt: skip
+
+
 def ttf_tests_markdown(tests: pd.DataFrame) -> str:
     """The TTF tests as a pipe table (medians labelled; intervals 95 % bootstrap; ``*``: too few to test)."""
-    lines = [
-        "| task | fidelity | ablation | n full / ablation | median TTF % full / ablation | U | p | Holm p "
-        "| smallest attainable p | P(full > ablation) [95 % CI] | HL shift, TTF % [95 % CI] | test |",
-        "|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|---|",
-    ]
-    for r in tests.itertuples(index=False):
-        if not (r.n_ref and r.n_other):
-            lines.append(
-                f"| {r.task} | {r.condition} | {r.variant} | {r.n_ref} / {r.n_other} | — | — | — | — "
-                "| — | — | — | not tested |"
-            )
-            continue
-        t = r.testable
-        lines.append(
-            f"| {r.task} | {r.condition} | {r.variant} | {r.n_ref} / {r.n_other} | "
-            f"{100 * r.median_ref:.1f} / {100 * r.median_other:.1f} | {r.U:.1f} | {_pv(r.p, t)} | "
-            f"{_pv(r.p_holm, t)} | {_pv(r.p_min)} | "
-            f"{r.prob_superiority:.2f} [{r.ps_lo:.2f}, {r.ps_hi:.2f}] | "
-            f"{100 * r.hl_shift:+.1f} [{100 * r.hl_lo:+.1f}, {100 * r.hl_hi:+.1f}] | "
-            f"{r.method if t else 'too few to test'} |"
+    return pipe_table(TTF_TEST_COLUMNS, "lllrrrrrrrrl", map(_ttf_test_row, tests.itertuples(index=False)))
+
+
+def _ttf_test_row(r) -> str:
+    if not (r.n_ref and r.n_other):
+        return (
+            f"| {r.task} | {r.condition} | {r.variant} | {r.n_ref} / {r.n_other} | — | — | — | — "
+            "| — | — | — | not tested |"
         )
-    return "\n".join(lines) + "\n"
+    t = r.testable
+    return (
+        f"| {r.task} | {r.condition} | {r.variant} | {r.n_ref} / {r.n_other} | "
+        f"{100 * r.median_ref:.1f} / {100 * r.median_other:.1f} | {r.U:.1f} | {_pv(r.p, t)} | "
+        f"{_pv(r.p_holm, t)} | {_pv(r.p_min)} | "
+        f"{r.prob_superiority:.2f} [{r.ps_lo:.2f}, {r.ps_hi:.2f}] | "
+        f"{100 * r.hl_shift:+.1f} [{100 * r.hl_lo:+.1f}, {100 * r.hl_hi:+.1f}] | "
+        f"{r.method if t else 'too few to test'} |"
+    )
+
+
+#: The columns of :func:`completion_tests_markdown`.
+COMPLETION_TEST_COLUMNS = (
+    "task", "fidelity", "ablation", "completed full / ablation",
+    "difference in completion rate, points [95 % CI]", "Barnard p", "Holm p", "smallest attainable p",
+)  # fmt: skip
 
 
 def completion_tests_markdown(tests: pd.DataFrame) -> str:
     """The completion tests as a pipe table (``*``: too few to test)."""
-    lines = [
-        "| task | fidelity | ablation | completed full / ablation | difference in completion rate, "
-        "points [95 % CI] | Barnard p | Holm p | smallest attainable p |",
-        "|---|---|---|--:|--:|--:|--:|--:|",
-    ]
-    for r in tests.itertuples(index=False):
-        t = r.testable
-        lines.append(
-            f"| {r.task} | {r.fidelity} | {r.variant} | {r.k_ref}/{r.n_ref} / {r.k_other}/{r.n_other} | "
-            f"{100 * r.delta:+.0f} [{100 * r.delta_lo:+.0f}, {100 * r.delta_hi:+.0f}] | {_pv(r.p, t)} | "
-            f"{_pv(r.p_holm, t)} | {_pv(r.p_min)} |"
-        )
-    return "\n".join(lines) + "\n"
+    rows = map(_completion_test_row, tests.itertuples(index=False))
+    return pipe_table(COMPLETION_TEST_COLUMNS, "lllrrrrr", rows)
+
+
+def _completion_test_row(r) -> str:
+    t = r.testable
+    return (
+        f"| {r.task} | {r.fidelity} | {r.variant} | {r.k_ref}/{r.n_ref} / {r.k_other}/{r.n_other} | "
+        f"{100 * r.delta:+.0f} [{100 * r.delta_lo:+.0f}, {100 * r.delta_hi:+.0f}] | {_pv(r.p, t)} | "
+        f"{_pv(r.p_holm, t)} | {_pv(r.p_min)} |"
+    )

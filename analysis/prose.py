@@ -95,3 +95,16 @@ def as_recorded(df):
     news = list(mapping.values())
     back = {new: old for old, new in mapping.items() if news.count(new) == 1}
     return df.assign(variant=df["variant"].map(lambda v: back.get(v, v)))
+
+
+def glance_row(task: str, configuration: str, trials) -> dict:
+    """A row of the README's "results at a glance" (``analysis.study.glance_table``) for ``trials``, a
+    frame with boolean ``completed`` and ``finished_cleanly`` and the CPU seconds ``compute``."""
+    n = len(trials)
+    return {
+        "task": task,
+        "configuration": configuration,
+        "completed": f"{int(trials['completed'].sum())}/{n}",
+        "finished cleanly": f"{int(trials['finished_cleanly'].sum())}/{n}",
+        "median CPU-s per trial": median(trials["compute"]),
+    }

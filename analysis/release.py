@@ -33,7 +33,7 @@ from analysis._cli import fail, sweep_parser
 from analysis.aggregate import TASK_ORDER, VARIANT_ORDER, ok_trials, ordered, select
 from analysis.paper_fig3 import FIDELITY_ORDER
 from analysis.paper_fig3 import load as fig3_load
-from analysis.summarize import Stat, summarize
+from analysis.summarize import Stat, pipe_table, summarize
 
 #: Which error a task's table shows: the free body's position, or (no free body) its articulations.
 ERRORS = {"position": "object_position_error", "articulation": "object_articulation_error"}
@@ -94,21 +94,25 @@ def release_table(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+#: The columns of :func:`markdown`.
+COLUMNS = (
+    "task", "variant", "fidelity", "n", "completed", "settled", "finished cleanly",
+    "median object error: span / after span / final",
+)  # fmt: skip
+
+
 def markdown(table: pd.DataFrame) -> str:
     """The table as markdown (errors in mm, or mrad for an articulation)."""
-    lines = [
-        "| task | variant | fidelity | n | completed | settled | finished cleanly "
-        "| median object error: span / after span / final |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for r in table.itertuples(index=False):
-        unit = "mm" if r.error == "position" else "x 1e-3 (rad, or m for a slide)"
-        errs = " / ".join(_milli(e) for e in (r.error_span, r.error_after, r.error_final))
-        lines.append(
-            f"| {r.task} | {r.variant} | {r.fidelity} | {r.n} | {r.completed}/{r.n} | {r.settled}/{r.n} "
-            f"| {r.finished_cleanly}/{r.n} | {errs} {unit} |"
-        )
-    return "\n".join(lines) + "\n"
+    return pipe_table(COLUMNS, "l" * len(COLUMNS), map(_row, table.itertuples(index=False)))
+
+
+def _row(r) -> str:
+    unit = "mm" if r.error == "position" else "x 1e-3 (rad, or m for a slide)"
+    errs = " / ".join(_milli(e) for e in (r.error_span, r.error_after, r.error_final))
+    return (
+        f"| {r.task} | {r.variant} | {r.fidelity} | {r.n} | {r.completed}/{r.n} | {r.settled}/{r.n} "
+        f"| {r.finished_cleanly}/{r.n} | {errs} {unit} |"
+    )
 
 
 def paired_markdown(df: pd.DataFrame) -> str:

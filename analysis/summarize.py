@@ -185,11 +185,18 @@ def markdown(df: pd.DataFrame, align: str | None = None) -> str:
     cols = list(df.columns)
     if align is None:
         align = "".join("r" if c in stats else "l" for c in cols)
-    marks = {"l": "---", "r": "--:"}
-    lines = ["| " + " | ".join(map(str, cols)) + " |", "|" + "|".join(marks[a] for a in align) + "|"]
+    rows = []
     for row in df.itertuples(index=False):
         cells = [stats[c].show(v) if c in stats else _cell(v) for c, v in zip(cols, row, strict=True)]
-        lines.append("| " + " | ".join(cells) + " |")
+        rows.append("| " + " | ".join(cells) + " |")
+    return pipe_table(map(str, cols), align, rows)
+
+
+def pipe_table(columns: Iterable[str], align: str, rows: Iterable[str]) -> str:
+    """A pipe table: its header of ``columns``, their alignment (one ``l``/``r`` per column) and the body
+    ``rows``, each a table row already written (``| a | b |``)."""
+    marks = {"l": "---", "r": "--:"}
+    lines = ["| " + " | ".join(columns) + " |", "|" + "|".join(marks[a] for a in align) + "|", *rows]
     return "\n".join(lines) + "\n"
 
 

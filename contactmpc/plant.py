@@ -165,9 +165,17 @@ class Plant:
             object_position_error=err.position,
             object_rotation_error=err.rotation,
             object_articulation_error=err.articulation,
-            **{f"cost_{name}": value for name, value in info.terms.items()},
-            best_cost=info.best_cost,
-            nominal_cost=info.nominal_cost,
-            plan_seconds=info.seconds,
-            num_diverged=info.num_diverged,
+            **_plan_columns(info),
         )
+
+
+def _plan_columns(info: PlanInfo) -> dict[str, float]:
+    """A log row's columns of the planning iteration ``info``: the committed sample's cost terms
+    (``cost_<term>``), the best and the nominal cost, its wall time and its diverged rollouts."""
+    return {
+        **{f"cost_{name}": value for name, value in info.terms.items()},
+        "best_cost": info.best_cost,
+        "nominal_cost": info.nominal_cost,
+        "plan_seconds": info.seconds,
+        "num_diverged": info.num_diverged,
+    }

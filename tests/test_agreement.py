@@ -86,22 +86,29 @@ def _setup(task: str) -> tuple[Scene, Trial]:
     return scene, trial
 
 
-@pytest.mark.parametrize("task", SYNTHESISED + PAPER)
-def test_planning_model_follows_the_plant_and_the_free_savings_cost_nothing(task: str) -> None:
+def _contact_states(task: str) -> tuple[Scene, list[tuple[float, np.ndarray, np.ndarray]]]:
+    """The scene of ``task`` and its reference replay's moving contact states, each with the reference
+    joint targets over the next ``WINDOW`` planning steps: ``(t, state, controls)`` (a paper task skips
+    without its data)."""
     if task in PAPER and not os.environ.get("CONTACTMPC_PAPER_DATA"):
         pytest.skip("CONTACTMPC_PAPER_DATA is not set (the authors' mjpc/tasks directory)")
     scene, trial = _setup(task)
-    assert scene.planner_options == FREE_PLANNER_OPTIONS  # the default config's planning model
-    plain = copy.copy(scene.planner_model)  # MuJoCo's defaults: the planning model without the savings
-    plain.opt.ccd_iterations = scene.plant_model.opt.ccd_iterations
-    plain.opt.ccd_tolerance = scene.plant_model.opt.ccd_tolerance
     states = moving_contact_states(scene, trial)
     # a median of at least three states: one knife-edge state cannot decide it
     assert len(states) >= 3, f"{task}: the reference replay touches the object at {len(states)} instants"
     dt = scene.planner_model.opt.timestep
+    return scene, [(t, state, trial.planner.targets(t + dt * np.arange(WINDOW))) for t, state in states]
+
+
+@pytest.mark.parametrize("task", SYNTHESISED + PAPER)
+def test_planning_model_follows_the_plant_and_the_free_savings_cost_nothing(task: str) -> None:
+    scene, states = _contact_states(task)
+    assert scene.planner_options == FREE_PLANNER_OPTIONS  # the default config's planning model
+    plain = copy.copy(scene.planner_model)  # MuJoCo's defaults: the planning model without the savings
+    plain.opt.ccd_iterations = scene.plant_model.opt.ccd_iterations
+    plain.opt.ccd_tolerance = scene.plant_model.opt.ccd_tolerance
     worse = []
-    for t, state in states:
-        controls = trial.planner.targets(t + dt * np.arange(WINDOW))
+    for t, state, controls in states:
         gap, before = (object_gap(scene, state, controls, m) for m in (scene.planner_model, plain))
         moved = object_gap(scene, state, controls, scene.planner_model, truth=plain)
         print(
@@ -131,16 +138,10 @@ ACROSS_FINGERS = {"hand_pairs": "across_fingers"}
 
 @pytest.mark.parametrize("task", SYNTHESISED + PAPER)
 def test_planning_model_across_fingers_follows_the_plant_as_the_exact_one(task: str) -> None:
-    if task in PAPER and not os.environ.get("CONTACTMPC_PAPER_DATA"):
-        pytest.skip("CONTACTMPC_PAPER_DATA is not set (the authors' mjpc/tasks directory)")
-    scene, trial = _setup(task)
+    scene, states = _contact_states(task)
     fast = planning_model(scene, **ACROSS_FINGERS)
-    states = moving_contact_states(scene, trial)
-    assert len(states) >= 3, f"{task}: the reference replay touches the object at {len(states)} instants"
-    dt = scene.planner_model.opt.timestep
     worse = []
-    for t, state in states:
-        controls = trial.planner.targets(t + dt * np.arange(WINDOW))
+    for t, state, controls in states:
         exact, cut = (object_gap(scene, state, controls, m) for m in (scene.planner_model, fast))
         print(f"[{task} t={t:.2f}s] object, plant vs planning model: {1e3 * exact:.3f} mm exact, "
               f"{1e3 * cut:.3f} mm across fingers")  # fmt: skip

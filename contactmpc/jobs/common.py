@@ -1,6 +1,6 @@
 """What the trial and online jobs share: their inputs (:class:`TrialInputs`), building the trial from them
-(:func:`build_trial`) and the record's life (:func:`new_record`, :func:`write_failure`,
-:func:`record_failure`, :func:`failure_status`)."""
+(:func:`build_trial`), running its closed loop (:func:`run_loop`) and the record's life
+(:func:`new_record`, :func:`write_failure`, :func:`record_failure`, :func:`failure_status`)."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ from contactmpc.records import (
 )
 from contactmpc.reference.source import get_reference
 from contactmpc.scene import Scene
-from contactmpc.trial import PlantDiverged, Trial, check_planner_timing
+from contactmpc.trial import PlantDiverged, Trial, TrialLog, check_planner_timing
 from contactmpc.validate import ConfigError, Ge, Gt, checked
 
 
@@ -140,6 +140,18 @@ def screen_window(
     if end_after_contact is not None:
         duration = round((first + end_after_contact) / dt) * dt
     return start, duration
+
+
+def run_loop(run: Callable[[], TrialLog], trial: Trial, record: dict) -> TrialLog:
+    """Run ``trial``'s closed loop, ``run`` (:meth:`~contactmpc.trial.Trial.run` or
+    :meth:`~contactmpc.online.OnlineLoop.run`), and return its log; whatever happens, close the trial's
+    planner and put the perturbation it drew in ``record`` (``perturbation``)."""
+    try:
+        return run()
+    finally:
+        trial.planner.close()
+        if trial.draw is not None:
+            record["perturbation"] = trial.draw.record()
 
 
 def new_record(seed: int, labels: dict | None) -> dict:

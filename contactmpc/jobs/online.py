@@ -14,7 +14,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
-from contactmpc.jobs.common import TrialInputs, build_trial, new_record, record_failure, write_failure
+from contactmpc.jobs.common import (
+    TrialInputs,
+    build_trial,
+    new_record,
+    record_failure,
+    run_loop,
+    write_failure,
+)
 from contactmpc.jobs.trial import summarize
 from contactmpc.online import OnlineLoop
 from contactmpc.records import RECORD_NAME, SERIES_NAME, RunningTrials, write_json, write_series
@@ -66,7 +73,6 @@ def run_online(
     """
     out = Path(output_dir)
     record = new_record(seed, labels)
-    planner = inputs.planner
     wall0 = time.perf_counter()
     loop = None
     running = RunningTrials()
@@ -85,11 +91,8 @@ def run_online(
             )
             loop0 = time.perf_counter()
             try:
-                log = loop.run()
+                log = run_loop(loop.run, trial, record)
             finally:
-                planner.close()
-                if trial.draw is not None:
-                    record["perturbation"] = trial.draw.record()
                 timing = loop.summary()
                 record.update(timing)
         record["concurrent_trials"] = running.max or None

@@ -256,13 +256,14 @@ def profile_plan(
     make_scene: Callable[[], Scene],
     output_dir: str | Path,
     seed: Annotated[int, Ge(0)],
-    sampler: SplineSpace,
-    cost: TrackingCost,
-    planner: Planner,
+    *,
     every: Annotated[float, Gt(0)] = 2.0,
     repeats: Annotated[int, Ge(1)] = 3,
     visit: Annotated[str, OneOf("replay", "planner")] = "replay",
     alternatives: dict[str, dict[str, Any]] | None = None,
+    sampler: SplineSpace,
+    cost: TrackingCost,
+    planner: Planner,
     duration: Annotated[float, Gt(0)] | None = None,
     labels: dict | None = None,
     reference_cache: str | None = "outputs/cache/references",
@@ -270,16 +271,19 @@ def profile_plan(
 ) -> Path:
     """Profile a planning iteration over a trial's states (see the module docstring).
 
+    The job's settings, after ``seed``, are keyword-only (its config gives them by name): its own first,
+    then the trial's it visits.
+
     Args:
         make_scene: builds the scene.
         output_dir: where ``profile.json`` and ``profile.csv`` go.
         seed: the trial's seed (the closed loop's and the sampling noise's).
-        sampler, cost, planner: as for a trial; the planner runs on one thread.
         every: control seconds between visited states.
         repeats: interleaved timings per state (median).
         visit: ``replay`` (the reference's splines in the plant) or ``planner`` (the closed loop).
         alternatives: name -> planning-model cuts (keyword arguments of
             :func:`contactmpc.scene.planning_model`) timed beside the scene's planning model.
+        sampler, cost, planner: as for a trial; the planner runs on one thread.
         duration: control time the visit covers; ``None``: the trial's.
         labels: the config choices (task, variant, preset), for the table.
         reference_cache: cache directory of synthesised references.

@@ -16,6 +16,7 @@ from contactmpc.jobs.common import (
     failure_status,
     new_record,
     record_failure,
+    run_loop,
     write_failure,
 )
 from contactmpc.metrics import errors_by_window, time_to_failure, time_to_failure_cut_short
@@ -93,12 +94,7 @@ def run_trial(
             engine = getattr(planner, "engine", None)  # rollout threads (None: a planner without rollouts)
             record["threads"] = None if engine is None else engine.nthread
             loop0, cpu0 = time.perf_counter(), time.process_time()
-            try:
-                log = trial.run()
-            finally:
-                planner.close()
-                if trial.draw is not None:
-                    record["perturbation"] = trial.draw.record()
+            log = run_loop(trial.run, trial, record)
         record["concurrent_trials"] = running.max or None
         series = log.arrays()
         wall = time.perf_counter() - loop0  # the closed loop alone, for the real-time factor

@@ -256,16 +256,7 @@ def _findings(df: pd.DataFrame, ttf: pd.DataFrame, done: pd.DataFrame, fid: str,
     untestable = int((~tt["testable"]).sum())
     passing = tt[tt["p_holm"] < ALPHA]
     if len(passing):
-        items = [
-            f"the {r.task}, full against {r.variant} (medians {100 * r.median_ref:.1f} % against "
-            f"{100 * r.median_other:.1f} %, Holm p = {f.p(r.p_holm)}, P(full > ablation) "
-            f"{r.prob_superiority:.2f} [{r.ps_lo:.2f}, {r.ps_hi:.2f}], shift {100 * r.hl_shift:+.1f} points)"
-            for r in passing.itertuples(index=False)
-        ]
-        lines.append(
-            f"**TTF**: of the {m_tests} tests, {len(passing)} {_pass(len(passing))} Holm's correction: "
-            f"{'; '.join(items)}."
-        )
+        lines.append(_holm(f"**TTF**: of the {m_tests} tests, {len(passing)}", passing, _ttf_test, f))
     else:
         lines.append(f"**TTF**: none of the {m_tests} tests passes Holm's correction.")
     if untestable:
@@ -274,16 +265,7 @@ def _findings(df: pd.DataFrame, ttf: pd.DataFrame, done: pd.DataFrame, fid: str,
         )
     cp = dd[dd["p_holm"] < ALPHA]
     if len(cp):
-        items = [
-            f"the {r.task}, full {r.k_ref}/{r.n_ref} against {r.variant} {r.k_other}/{r.n_other} "
-            f"(Holm p = {f.p(r.p_holm)}, difference {100 * r.delta:+.0f} points [{100 * r.delta_lo:+.0f}, "
-            f"{100 * r.delta_hi:+.0f}])"
-            for r in cp.itertuples(index=False)
-        ]
-        lines.append(
-            f"**Completion**: {len(cp)} of {len(dd)} tests {_pass(len(cp))} Holm's correction: "
-            f"{'; '.join(items)}."
-        )
+        lines.append(_holm(f"**Completion**: {len(cp)} of {len(dd)} tests", cp, _completion_test, f))
     elif len(dd):
         low = dd.loc[dd["p"].idxmin()]
         lines.append(
@@ -413,6 +395,31 @@ def _the(tasks: list[str], f) -> str:
 
 def _pass(n: int) -> str:
     return "passes" if n == 1 else "pass"
+
+
+def _holm(head: str, passing: pd.DataFrame, item, f) -> str:
+    """``head`` (what is counted, up to the number that pass), then the tests that pass Holm's correction,
+    each as ``item(row, f)`` words it."""
+    items = "; ".join(item(r, f) for r in passing.itertuples(index=False))
+    return f"{head} {_pass(len(passing))} Holm's correction: {items}."
+
+
+def _ttf_test(r, f) -> str:
+    """A TTF test that passes, in words."""
+    return (
+        f"the {r.task}, full against {r.variant} (medians {100 * r.median_ref:.1f} % against "
+        f"{100 * r.median_other:.1f} %, Holm p = {f.p(r.p_holm)}, P(full > ablation) "
+        f"{r.prob_superiority:.2f} [{r.ps_lo:.2f}, {r.ps_hi:.2f}], shift {100 * r.hl_shift:+.1f} points)"
+    )
+
+
+def _completion_test(r, f) -> str:
+    """A completion test that passes, in words."""
+    return (
+        f"the {r.task}, full {r.k_ref}/{r.n_ref} against {r.variant} {r.k_other}/{r.n_other} "
+        f"(Holm p = {f.p(r.p_holm)}, difference {100 * r.delta:+.0f} points [{100 * r.delta_lo:+.0f}, "
+        f"{100 * r.delta_hi:+.0f}])"
+    )
 
 
 def _rate(g: pd.DataFrame | None) -> float:

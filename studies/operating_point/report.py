@@ -9,7 +9,7 @@ import pandas as pd
 
 from analysis import operating_point as op
 from analysis.aggregate import select
-from analysis.prose import as_recorded, median, of, seeds, span
+from analysis.prose import as_recorded, glance_row, median, of, seeds, span
 
 QUESTION = "Which planner size completes the paper's tasks on their real data, and at what compute?"
 TITLE = "The paper's operating point on the real data"
@@ -54,15 +54,11 @@ def trials(study) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 def cell(df: pd.DataFrame, task: str, variant: str, fidelity: str, point: tuple) -> pd.DataFrame:
     """The trials of one task, variant, reading and point (samples, horizon, interval, latency)."""
-    s, h, i, lat = point
     return df[
         (df["task"] == task)
         & (df["variant"] == variant)
         & (df["fidelity"] == fidelity)
-        & (df["samples"] == s)
-        & (df["horizon"] == h)
-        & (df["interval"].round(3) == round(i, 3))
-        & (df["latency"].round(3) == round(lat, 3))
+        & op.at_point(df, point)
     ]
 
 
@@ -276,12 +272,4 @@ def report(study) -> str:
 def glance(study) -> list[dict]:
     """The apple at ``preset=paper_32samples`` (the full method, the text's reading)."""
     g = cell(trials(study)[0], "apple", "full", "paper", CHOSEN)
-    return [
-        {
-            "task": "paper apple",
-            "configuration": "`preset=paper_32samples` (full method)",
-            "completed": f"{int(g['completed'].sum())}/{len(g)}",
-            "finished cleanly": f"{int(g['finished_cleanly'].sum())}/{len(g)}",
-            "median CPU-s per trial": median(g["compute"]),
-        }
-    ]
+    return [glance_row("paper apple", "`preset=paper_32samples` (full method)", g)]

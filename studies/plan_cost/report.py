@@ -110,6 +110,11 @@ def _phases(g: pd.DataFrame):
             yield p, sel
 
 
+def _table(columns: dict) -> str:
+    """``columns`` (header -> values) as a pipe table."""
+    return markdown(pd.DataFrame(columns))
+
+
 def profile_table(rows: pd.DataFrame, visit: str) -> str:
     out = []
     for label, g in rows[rows["visit"] == visit].groupby("label", sort=False):
@@ -141,23 +146,20 @@ def calibration(rows: pd.DataFrame, runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def calibration_table(cal: pd.DataFrame) -> str:
-    return markdown(
-        pd.DataFrame(
-            {
-                "run": cal["run"],
-                "visit": [f"{v} every {e:g} s" for v, e in zip(cal["visit"], cal["every"], strict=True)],
-                "states": cal["states"],
-                "median µs": cal["median"].map(_f),
-                "range µs": [_range(r) for r in zip(cal["min"], cal["max"], strict=True)],
-                "mean µs": cal["mean"].map(_f),
-                "latency ms (median)": cal["ms"].map(lambda x: _f(x, 0)),
-                "latency range ms": [_range(r, 0) for r in zip(cal["ms_min"], cal["ms_max"], strict=True)],
-                "load before / after": [
-                    f"{a:.1f} / {b:.1f}" for a, b in zip(cal["load_before"], cal["load_after"], strict=True)
-                ],
-            }
-        )
-    )
+    columns = {
+        "run": cal["run"],
+        "visit": [f"{v} every {e:g} s" for v, e in zip(cal["visit"], cal["every"], strict=True)],
+        "states": cal["states"],
+        "median µs": cal["median"].map(_f),
+        "range µs": [_range(r) for r in zip(cal["min"], cal["max"], strict=True)],
+        "mean µs": cal["mean"].map(_f),
+        "latency ms (median)": cal["ms"].map(lambda x: _f(x, 0)),
+        "latency range ms": [_range(r, 0) for r in zip(cal["ms_min"], cal["ms_max"], strict=True)],
+        "load before / after": [
+            f"{a:.1f} / {b:.1f}" for a, b in zip(cal["load_before"], cal["load_after"], strict=True)
+        ],
+    }
+    return _table(columns)
 
 
 def speedups(rows: pd.DataFrame) -> pd.DataFrame:
@@ -177,24 +179,21 @@ def speedups(rows: pd.DataFrame) -> pd.DataFrame:
 
 
 def speedup_table(sp: pd.DataFrame) -> str:
-    return markdown(
-        pd.DataFrame(
-            {
-                "run": sp["run"],
-                "visit": sp["visit"],
-                "phase": sp["phase"],
-                "exact µs": sp["exact"].map(_f),
-                f"{FAST} µs": sp["fast"].map(_f),
-                f"exact / {FAST} (means; median per state)": [
-                    f"{a:.2f}x; {b:.2f}x" for a, b in zip(sp["fast_x"], sp["fast_med"], strict=True)
-                ],
-                f"{NONE} µs": sp["none"].map(_f),
-                f"{FAST} / {NONE} (means; median per state)": [
-                    f"{a:.2f}x; {b:.2f}x" for a, b in zip(sp["none_x"], sp["none_med"], strict=True)
-                ],
-            }
-        )
-    )
+    columns = {
+        "run": sp["run"],
+        "visit": sp["visit"],
+        "phase": sp["phase"],
+        "exact µs": sp["exact"].map(_f),
+        f"{FAST} µs": sp["fast"].map(_f),
+        f"exact / {FAST} (means; median per state)": [
+            f"{a:.2f}x; {b:.2f}x" for a, b in zip(sp["fast_x"], sp["fast_med"], strict=True)
+        ],
+        f"{NONE} µs": sp["none"].map(_f),
+        f"{FAST} / {NONE} (means; median per state)": [
+            f"{a:.2f}x; {b:.2f}x" for a, b in zip(sp["none_x"], sp["none_med"], strict=True)
+        ],
+    }
+    return _table(columns)
 
 
 def agreement(ag: pd.DataFrame) -> pd.DataFrame:
@@ -218,42 +217,36 @@ def agreement_table(agr: pd.DataFrame) -> str:
     def mm(x: float, sign: bool = False) -> str:
         return "—" if pd.isna(x) else (f"{x:+.3f}" if sign else f"{x:.3f}")
 
-    return markdown(
-        pd.DataFrame(
-            {
-                "task": agr["task"],
-                "contact states": agr["states"],
-                "exact: median gap mm": agr["exact"].map(mm),
-                f"{FAST} - exact: median mm": agr["fast_diff_med"].map(lambda x: mm(x, True)),
-                f"{FAST} - exact: largest abs mm": agr["fast_diff_max"].map(mm),
-                f"{NONE}: states": agr["none_states"].map(lambda n: n or "—"),
-                f"{NONE}: median gap mm": agr["none"].map(mm),
-                f"{NONE} - exact: median mm": agr["none_diff_med"].map(lambda x: mm(x, True)),
-                f"{NONE} - exact: largest mm": agr["none_diff_max"].map(lambda x: mm(x, True)),
-            }
-        )
-    )
+    columns = {
+        "task": agr["task"],
+        "contact states": agr["states"],
+        "exact: median gap mm": agr["exact"].map(mm),
+        f"{FAST} - exact: median mm": agr["fast_diff_med"].map(lambda x: mm(x, True)),
+        f"{FAST} - exact: largest abs mm": agr["fast_diff_max"].map(mm),
+        f"{NONE}: states": agr["none_states"].map(lambda n: n or "—"),
+        f"{NONE}: median gap mm": agr["none"].map(mm),
+        f"{NONE} - exact: median mm": agr["none_diff_med"].map(lambda x: mm(x, True)),
+        f"{NONE} - exact: largest mm": agr["none_diff_max"].map(lambda x: mm(x, True)),
+    }
+    return _table(columns)
 
 
 def trials_table(runs: pd.DataFrame, rows: pd.DataFrame) -> str:
     t = runs[runs["trial_num_plans"].notna()]
     last = rows[rows["visit"] == "planner"].groupby("label")["time"].max()
-    return markdown(
-        pd.DataFrame(
-            {
-                "run": t["label"],
-                "seed": t["seed"].astype(int),
-                "states (the last at)": [
-                    f"{n} ({last[lb]:.1f} s)" for n, lb in zip(t["states"], t["label"], strict=True)
-                ],
-                "completed": t["trial_completed"].astype(bool),
-                "TTF": t["trial_ttf"].map(lambda x: _f(x, 2)),
-                "finished cleanly": t["trial_finished_cleanly"].astype(bool),
-                "plans": t["trial_num_plans"].astype(int),
-                "wall µs per sample-step": t["trial_plan_us_per_sample_step"].map(_f),
-            }
-        )
-    )
+    columns = {
+        "run": t["label"],
+        "seed": t["seed"].astype(int),
+        "states (the last at)": [
+            f"{n} ({last[lb]:.1f} s)" for n, lb in zip(t["states"], t["label"], strict=True)
+        ],
+        "completed": t["trial_completed"].astype(bool),
+        "TTF": t["trial_ttf"].map(lambda x: _f(x, 2)),
+        "finished cleanly": t["trial_finished_cleanly"].astype(bool),
+        "plans": t["trial_num_plans"].astype(int),
+        "wall µs per sample-step": t["trial_plan_us_per_sample_step"].map(_f),
+    }
+    return _table(columns)
 
 
 def report(study) -> str:

@@ -9,7 +9,7 @@ import pandas as pd
 from scipy.stats import fisher_exact
 
 from analysis import operating_point as op
-from analysis.prose import as_recorded, median, of, seeds, seeds_n, span
+from analysis.prose import as_recorded, glance_row, median, of, seeds, seeds_n, span
 from analysis.summarize import Stat, markdown, summarize
 
 QUESTION = "Why does the paper's method never lift the real stapler, and what does?"
@@ -54,15 +54,8 @@ def trials(study) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 
 def at(df: pd.DataFrame, variant: str, point: tuple, fidelity: str = "paper") -> pd.DataFrame:
-    s, h, i, lat = point
-    return df[
-        (df["variant"] == variant)
-        & (df["fidelity"] == fidelity)
-        & (df["samples"] == s)
-        & (df["horizon"] == h)
-        & (df["interval"].round(3) == round(i, 3))
-        & (df["latency"].round(3) == round(lat, 3))
-    ].sort_values("seed")
+    mask = (df["variant"] == variant) & (df["fidelity"] == fidelity) & op.at_point(df, point)
+    return df[mask].sort_values("seed")
 
 
 def outcome(r) -> str:
@@ -246,12 +239,4 @@ def report(study) -> str:
 def glance(study) -> list[dict]:
     """The stapler's best known configuration: `wrist_clearance` at the paper point."""
     g = at(trials(study)[0], "wrist_clearance", PAPER)
-    return [
-        {
-            "task": "paper stapler",
-            "configuration": "`preset=paper variant=wrist_clearance`",
-            "completed": f"{int(g['completed'].sum())}/{len(g)}",
-            "finished cleanly": f"{int(g['finished_cleanly'].sum())}/{len(g)}",
-            "median CPU-s per trial": median(g["compute"]),
-        }
-    ]
+    return [glance_row("paper stapler", "`preset=paper variant=wrist_clearance`", g)]
