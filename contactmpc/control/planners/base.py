@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Annotated
+from typing import Annotated, NamedTuple
 
 import numpy as np
 
@@ -52,6 +52,26 @@ class PlanInfo:
     seconds: float = 0.0
     iterations: int = 1
 
+
+
+class Scored(NamedTuple):
+    """One planning iteration's scored candidates, what :meth:`Planner.commit` chooses from.
+
+    Attributes:
+        state: the full physics state planned from.
+        t: control time (s).
+        window: (Mw,) the control points sampled.
+        candidates: (S, Mw, d) their sampled values.
+        total: (S,) cumulative costs.
+        terms: cost term -> (S,) values.
+    """
+
+    state: np.ndarray
+    t: float
+    window: np.ndarray
+    candidates: np.ndarray
+    total: np.ndarray
+    terms: dict
 
 class Planner:
     """Base class of the sampling planners.
@@ -282,7 +302,7 @@ class Planner:
             if i == 0:
                 nominal_cost = float(total[0])
             self.theta[window], best_cost, best_terms = self.commit(
-                state, t, window, candidates, total, terms
+                Scored(state, t, window, candidates, total, terms)
             )
             num_diverged += int(diverged.sum())
             if self.early_stop and improvement(float(total[0]), best_cost) < self.early_stop:
@@ -298,27 +318,20 @@ class Planner:
             iterations=i + 1,
         )
 
-    def commit(
-        self,
-        state: np.ndarray,
-        t: float,
-        window: np.ndarray,
-        candidates: np.ndarray,
-        total: np.ndarray,
-        terms: dict,
-    ) -> tuple[np.ndarray, float, dict[str, float]]:
-        """What an iteration commits from its scored candidates (``state``, ``t``: where it planned, for
-        a planner that rolls out its update, :class:`~contactmpc.control.planners.PredictiveSampling`).
+    def commit(self, scored: Scored) -> tuple[np.ndarray, float, dict[str, float]]:
+        """What an iteration commits from its scored candidates (:class:`Scored`; its ``state`` and
+        ``t`` are for a planner that rolls out its update,
+        :class:`~contactmpc.control.planners.PredictiveSampling`).
 
         Returns:
             ``(theta_window (Mw, d), cost, terms)``: :meth:`update`'s control points, and the cumulative
             cost and cost terms of the cheapest sample.
         """
-        best = int(np.argmin(total))
+        best = int(np.argmin(scored.total))
         return (
-            self.update(candidates, total, window),
-            float(total[best]),
-            {k: float(v[best]) for k, v in terms.items()},
+            self.update(scored.candidates, scored.total, scored.window),
+            float(scored.total[best]),
+            {k: float(v[best]) for k, v in scored.terms.items()},
         )
 
     def noise_scale(self, t: float, window: np.ndarray, iteration: int = 0) -> np.ndarray | None:

@@ -6,7 +6,7 @@ from typing import Annotated
 
 import numpy as np
 
-from contactmpc.control.planners.base import Planner
+from contactmpc.control.planners.base import Planner, Scored
 from contactmpc.validate import Gt, OneOf, checked
 
 
@@ -64,24 +64,16 @@ class PredictiveSampling(Planner):
         w = np.exp(-(c - c[0]) / (self.temperature * spread))
         return np.tensordot(w / w.sum(), candidates[elites], axes=1)
 
-    def commit(
-        self,
-        state: np.ndarray,
-        t: float,
-        window: np.ndarray,
-        candidates: np.ndarray,
-        total: np.ndarray,
-        terms: dict,
-    ) -> tuple[np.ndarray, float, dict[str, float]]:
-        chosen = super().commit(state, t, window, candidates, total, terms)
+    def commit(self, scored: Scored) -> tuple[np.ndarray, float, dict[str, float]]:
+        chosen = super().commit(scored)
         if self.update_rule == "max":
             return chosen
-        mean = self.elite_mean(candidates, total)
+        mean = self.elite_mean(scored.candidates, scored.total)
         if mean is None:
             return chosen
         theta = self.theta.copy()
-        theta[window] = mean
-        cost, mean_terms, _ = self.evaluate(state, t, theta[None])
+        theta[scored.window] = mean
+        cost, mean_terms, _ = self.evaluate(scored.state, scored.t, theta[None])
         if not cost[0] <= chosen[1]:  # the cheapest sample stays (also where the mean diverged)
             return chosen
         return mean, float(cost[0]), {k: float(v[0]) for k, v in mean_terms.items()}
