@@ -13,6 +13,7 @@ import pandas as pd
 import yaml
 
 from analysis.prose import median, of, ratio, seeds, span
+from analysis.study import REPO
 from analysis.summarize import Fmt, Stat, markdown, summarize
 
 TITLE = "The cheap screen of the method levers (issue 33)"
@@ -22,7 +23,6 @@ EXPERIMENTS = ["bash studies/method_screen/run_screen.sh"]
 RECORDS = ["fig3_paper", "stapler"]
 
 HERE = Path(__file__).resolve().parent
-REPO = HERE.parent.parent
 SCRIPT = HERE / "run_screen.sh"
 TASKS = ("paper_stapler", "paper_bottle")
 BASELINES = ("full", "wrist_clearance")
