@@ -167,7 +167,8 @@ class Study:
         if experiments:
             lines += ["The records were made by:", "", "```"]
             lines += [
-                e if e.startswith("python") else f"python launch.py experiment={e}" for e in experiments
+                e if e.startswith(("python", "bash")) else f"python launch.py experiment={e}"
+                for e in experiments
             ]
             lines += ["```", ""]
         return "\n".join(lines) + "\n"

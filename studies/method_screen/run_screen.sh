@@ -5,7 +5,7 @@
 # at a time. Seeds vary slowest (a sweep stopped early holds every lever at the seeds it reached);
 # resumable: launch.py skips finished records in the same directory.
 #   nohup nice -n 15 studies/method_screen/run_screen.sh > outputs/method_screen.log 2>&1 &
-#   python studies/method_screen/table.py studies/method_screen/records
+#   python -m analysis.study method_screen    # the report (studies/method_screen/README.md)
 set -u
 cd "$(dirname "$0")/../.."
 OUT=${OUT:-studies/method_screen/records}
