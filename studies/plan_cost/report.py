@@ -463,9 +463,9 @@ ONLINE_COLUMNS = {
 
 
 def online_section(folder: Path) -> list[str]:
-    """The paper's real-time claim: ``job=online`` runs (``records/online/<run>.json``, made by
+    """The paper's real-time claim: ``job=online`` runs (``records/online/<run>/trial.json``, made by
     ``run_online.sh``), one row each, and what is not measured yet."""
-    runs = sorted(folder.glob("*.json"))
+    runs = sorted(folder.glob("*/trial.json"))
     head = [
         "## Online in real time",
         "",
@@ -492,7 +492,7 @@ def online_section(folder: Path) -> list[str]:
                 cells.append(f"{r[key]:.3f}" if key == "real_time_factor" else f"{r[key]:.2f}")
             else:
                 cells.append(str(r.get(key)))
-        lines.append(f"| {path.stem} | " + " | ".join(cells) + " |")
+        lines.append(f"| {path.parent.name} | " + " | ".join(cells) + " |")
     done = ", ".join(str(s) for s in sorted(x for x in slowdowns if x is not None))
     return [
         *head,

@@ -4,7 +4,7 @@
 # repository root, with CONTACTMPC_PAPER_DATA set (the authors' mjpc/tasks directory):
 #   bash studies/plan_cost/run_online.sh [online|map|all]     (default: all)
 # Each run's record goes to outputs/plan_cost/<part>/<run>/ (trial.json + timeseries.npz); its trial.json is
-# copied to studies/plan_cost/records/<part>/<run>.json. A run whose record exists is skipped (resume=true).
+# copied to studies/plan_cost/records/<part>/<run>/trial.json. A run whose record exists is skipped (resume=true).
 # Extra overrides for every run (e.g. scene.planning_cuts='{hand_pairs: none}') via EXTRA="..." in the environment.
 # Budget on a 2-core AMD EPYC: online 4 tasks x 3 slowdowns x 2 runs, each its slowed trial's wall time
 # (39-69 s of control time x slowdown: about 2 h 10 min in all, on both cores); the map 3 latencies x 3 seeds
@@ -19,7 +19,7 @@ KEEP=studies/plan_cost/records
 
 keep() {  # keep <run dir> <part> <name>: the record's trial.json, where the study folder keeps it
   mkdir -p "$KEEP/$2"
-  if [[ -f "$1/trial.json" ]]; then cp "$1/trial.json" "$KEEP/$2/$3.json"; fi
+  if [[ -f "$1/trial.json" ]]; then mkdir -p "$KEEP/$2/$3" && cp "$1/trial.json" "$KEEP/$2/$3/trial.json"; fi
 }
 
 # item 4: job=online (the plant in wall-clock time, the planner replanning in a second thread) at
