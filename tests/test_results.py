@@ -32,4 +32,5 @@ def test_kept_record_is_whole(path: Path) -> None:
         online = record["config"]["job"]["_target_"].endswith("run_online")
         assert online or record["cpu_seconds"] > 0  # an online run is timed by the wall clock
         if record["planner"] != "replay":  # replay plans nothing: it records no planner threads
-            assert record["threads"] == record["config"]["planner"]["nthread"]
+            threads = record["planner_threads"] if online else record["threads"]
+            assert threads == record["config"]["planner"]["nthread"]
