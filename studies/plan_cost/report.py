@@ -452,6 +452,12 @@ def report(study) -> str:
     return "\n".join(out) + "\n"
 
 
+def _span(counts) -> str:
+    """``"2"`` or ``"1-2"``: the range of ``counts``."""
+    lo, hi = min(counts), max(counts)
+    return f"{lo}" if lo == hi else f"{lo}-{hi}"
+
+
 ONLINE_COLUMNS = {
     "real-time factor": "real_time_factor",
     "replan interval median / p95 (ms)": ("replan_interval_median", "replan_interval_p95"),
@@ -481,9 +487,13 @@ def online_section(folder: Path) -> list[str]:
         "|---|" + "--:|" * len(ONLINE_COLUMNS),
     ]
     slowdowns = set()
+    per_cell: dict[tuple[str, float], int] = {}
     for path in runs:
         r = json.loads(path.read_text())
-        slowdowns.add((r.get("config") or {}).get("job", {}).get("slowdown"))
+        slowdown = (r.get("config") or {}).get("job", {}).get("slowdown")
+        slowdowns.add(slowdown)
+        cell = (f"{r.get('task')} {r.get('variant')}", slowdown)
+        per_cell[cell] = per_cell.get(cell, 0) + 1
         cells = []
         for key in ONLINE_COLUMNS.values():
             if isinstance(key, tuple):
@@ -493,13 +503,18 @@ def online_section(folder: Path) -> list[str]:
             else:
                 cells.append(str(r.get(key)))
         lines.append(f"| {path.parent.name} | " + " | ".join(cells) + " |")
-    done = ", ".join(str(s) for s in sorted(x for x in slowdowns if x is not None))
+    done = sorted(x for x in slowdowns if x is not None)
+    missing = [f"slowdown {x:g}" for x in (1, 2, 3) if x not in done]
+    fewer = sorted(f"{c} at slowdown {x:g}" for (c, x), n in per_cell.items() if n < 2)
+    if fewer:
+        missing.insert(0, "a second run of " + Fmt.listing(fewer))
+    missing.append("the map above the modelled latency (`bash studies/plan_cost/run_online.sh map`)")
     return [
         *head,
         *lines,
         "",
-        f"{len(runs)} run{'s' if len(runs) != 1 else ''} kept, at slowdown {done}. The other runs "
-        "were stopped (SIGSTOP) while these ran, so 'trials at once' counts them though they did not "
-        "run. Not measured yet: two runs per cell, slowdowns 2 and 3, and the map above the modelled "
-        "latency (`bash studies/plan_cost/run_online.sh map`).",
+        f"{len(runs)} run{'s' if len(runs) != 1 else ''} kept, at slowdown "
+        f"{', '.join(f'{x:g}' for x in done)}, {_span(per_cell.values())} a cell. "
+        "The other runs were stopped (SIGSTOP) while these ran, so 'trials at once' counts them though "
+        "they did not run. Not measured yet: " + Fmt.listing(missing) + ".",
     ]
