@@ -16,6 +16,7 @@ from contactmpc.config import Inputs
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.planners.base import Planner
 from contactmpc.control.samplers import SplineSpace
+from contactmpc.metrics import contact_span
 from contactmpc.perturbations import Perturbation
 from contactmpc.records import (
     RECORD_NAME,
@@ -130,10 +131,10 @@ def screen_window(
     start = 0.0 if start_time is None else float(start_time)
     if start_before_contact is None and end_after_contact is None:
         return start, duration
-    touching = np.flatnonzero(np.asarray(reference.contact_active).any(axis=-1))
-    if not touching.size:
+    span = contact_span(np.asarray(reference.time) - reference.time[0], reference.contact_active)
+    if span is None:
         raise ConfigError("job.start_before_contact / end_after_contact: the reference expects no contact")
-    first = float(reference.time[touching[0]] - reference.time[0]) * scene.task.time_scale
+    first = span[0] * scene.task.time_scale
     dt = scene.plant_model.opt.timestep
     if start_before_contact is not None:
         start = max(0.0, round((first - start_before_contact) / dt) * dt)
