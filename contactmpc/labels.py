@@ -26,7 +26,7 @@ from contactmpc.control.release import ReleaseSchedule
 GROUPS: dict[str, str] = {"wrist": "fixed", "shaping": "none", "release": "none"}
 """The method's groups on top of the variant, each with its default member (the paper's method)."""
 
-NAMED_VARIANTS: dict[str, str] = {"wrist": "full", "wrist_clearance": "full"}
+NAMED_VARIANTS: dict[str, str] = {"wrist": "full", "wrist_clearance": "full", "grasp_release": "full"}
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
 
@@ -42,6 +42,7 @@ OLD_VARIANTS: dict[str, dict[str, str]] = {
     "release_scheduled": {"variant": "full", "release": "scheduled"},
     "release_flat": {"variant": "full", "release": "flat"},
     "release_backoff": {"variant": "full", "release": "backoff"},
+    "grasp_release": {"variant": "grasp_release", "wrist": "acquire", "shaping": "clearance", "release": "flat"},
 }
 """Variant labels of records made before the groups (``conf/variant`` had one file per combination):
 the labels the same trial gets now. A label not here is today's variant with the groups' defaults."""
