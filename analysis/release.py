@@ -72,8 +72,20 @@ def release_table(df: pd.DataFrame) -> pd.DataFrame:
     :func:`analysis.summarize.summarize`): ``n`` (ok trials), ``completed``, ``settled``,
     ``finished_cleanly`` (counts; NaN-valued fields count as not reached), ``error`` (its kind), and the
     medians ``error_span``, ``error_after``, ``error_final`` (m or rad)."""
-    good = ok_trials(df)
-    kinds = {task: error_kind(good[good["task"] == task]) for task in good["task"].unique()}
+    good = with_errors(ok_trials(df))
+    order = {"task": TASK_ORDER, "variant": RELEASE_ORDER, "fidelity": FIDELITY_ORDER}
+    out = summarize(good, by=["task", "variant", "fidelity"], stats=RELEASE_STATS, order=order)
+    for c in ("completed", "settled", "finished_cleanly"):
+        out[c] = out[c].fillna(0).astype(int)
+    out.insert(7, "error", out["task"].map(good.attrs["error_kinds"]))
+    return out
+
+
+def with_errors(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with each trial's object error in its task's kind (:func:`error_kind`, judged over the task's
+    rows of ``df``): ``_span`` and ``_after`` (means over and after the contact span) and ``_final`` (m, or
+    rad / m for an articulation; NaN where the record lacks it); ``attrs["error_kinds"]``: task -> kind."""
+    kinds = {task: error_kind(df[df["task"] == task]) for task in df["task"].unique()}
 
     def values(suffix: str) -> list[float]:
         cols = {
@@ -82,15 +94,11 @@ def release_table(df: pd.DataFrame) -> pd.DataFrame:
         }
         return [
             pd.to_numeric(pd.Series([r.get(cols[t], math.nan)]), errors="coerce").iloc[0]
-            for t, r in zip(good["task"], good.to_dict("records"), strict=True)
+            for t, r in zip(df["task"], df.to_dict("records"), strict=True)
         ]
 
-    good = good.assign(_span=values("span_mean"), _after=values("after_mean"), _final=values("final"))
-    order = {"task": TASK_ORDER, "variant": RELEASE_ORDER, "fidelity": FIDELITY_ORDER}
-    out = summarize(good, by=["task", "variant", "fidelity"], stats=RELEASE_STATS, order=order)
-    for c in ("completed", "settled", "finished_cleanly"):
-        out[c] = out[c].fillna(0).astype(int)
-    out.insert(7, "error", out["task"].map(kinds))
+    out = df.assign(_span=values("span_mean"), _after=values("after_mean"), _final=values("final"))
+    out.attrs["error_kinds"] = kinds
     return out
 
 
@@ -115,20 +123,30 @@ def _row(r) -> str:
     )
 
 
-def paired_markdown(df: pd.DataFrame) -> str:
+def paired_markdown(
+    df: pd.DataFrame, error: str = "after", order: tuple[str, ...] = RELEASE_ORDER, unpaired: bool = False
+) -> str:
     """Per task and seed, each variant's trial side by side: the object error after the span (mean, mm, or
     mrad for an articulation) and how it ended (``clean``: finished cleanly; ``done``: completed, not
     settled; ``failed``: not completed). Where the variants differ only in their release (``full``,
     ``release_reset`` and after), trials of one seed are the same until the planner first looks past the
-    last contact, so a row is a before/after. Seeds that only one variant has are left out."""
+    last contact, so a row is a before/after. Seeds that only one variant has are left out.
+
+    Args:
+        error: ``"after"`` (the mean after the span) or ``"final"`` (at the end of the trial).
+        order: the variants' columns, left to right (others follow, sorted).
+        unpaired: keep the seeds that only one variant has too (the others' cells blank).
+    """
+    if error not in ("after", "final"):
+        raise ValueError(f"error must be 'after' or 'final', not {error!r}")
     good = ok_trials(df)
-    variants = ordered(good["variant"], RELEASE_ORDER)
+    variants = ordered(good["variant"], order)
     lines = ["| task | seed | " + " | ".join(variants) + " |", "|---|---|" + "---|" * len(variants)]
     for task in ordered(good["task"], TASK_ORDER):
         at = good[good["task"] == task]
         col = ERRORS[error_kind(at)]
         for seed, g in at.groupby("seed"):
-            if g["variant"].nunique() < 2:
+            if g["variant"].nunique() < 2 and not unpaired:
                 continue
             cells = []
             for variant in variants:
@@ -139,7 +157,9 @@ def paired_markdown(df: pd.DataFrame) -> str:
                 r = r.iloc[0]
                 clean = r.get("finished_cleanly")
                 end = "clean" if _true(clean) else "done" if _true(r.get("completed")) else "failed"
-                cells.append(f"{_milli(float(r.get(f'{col}_after_mean', math.nan)))} {end}")
+                key = f"{col}_after_mean" if error == "after" else f"final_{col}"
+                value = pd.to_numeric(pd.Series([r.get(key, math.nan)]), errors="coerce").iloc[0]
+                cells.append(f"{_milli(float(value))} {end}")
             lines.append(f"| {task} | {seed} | " + " | ".join(cells) + " |")
     if len(lines) == 2:
         return ""

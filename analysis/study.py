@@ -127,8 +127,17 @@ class Study:
         path.parent.mkdir(parents=True, exist_ok=True)
         return path
 
-    def draw(self, name: str, make: Callable[[Path], object], alt: str) -> str:
-        """Draw figure ``name`` with ``make(path)`` when :attr:`drawing`; the Markdown image link."""
+    def draw(
+        self, name: str, make: Callable[[Path], object], alt: str, data: Path | None = None
+    ) -> str | None:
+        """Draw figure ``name`` with ``make(path)`` when :attr:`drawing`; the Markdown image link.
+
+        ``data``: a file the figure is drawn from that only some machines have (a trial's time series,
+        which is not kept in git): the figure is drawn only where it exists, and the link is given where it
+        exists or the kept figure does; ``None`` (no link) where neither does.
+        """
+        if data is not None and not Path(data).is_file():
+            return f"![{alt}](figures/{name})" if (self.dir / "figures" / name).is_file() else None
         if self.drawing:
             make(self.figure(name))
         return f"![{alt}](figures/{name})"

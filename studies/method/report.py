@@ -1,0 +1,486 @@
+"""The project's method for the paper's four tasks (issue 33): ``variant=grasp_release`` at the calibrated
+latency, ten seeds a task, beside the paper's full method on the same seeds at the same point."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import OmegaConf
+
+from analysis import release
+from analysis.aggregate import COUNTED_STATUSES, TASK_ORDER, ordered
+from analysis.inference import completion_test, newcombe
+from analysis.operating_point import points, readings
+from analysis.prose import glance_row, median, of, seeds
+from analysis.study import REPO, sweep_params
+from analysis.summarize import Fmt, Stat, markdown, pipe_table, summarize
+from analysis.timeline import timeline
+
+QUESTION = (
+    "Does one named method (variant=grasp_release) complete all four of the paper's tasks, at least 9 of 10 "
+    "seeds each and at least 8 of 10 finished cleanly, at the paper point's calibrated latency, and how "
+    "does it compare with the paper's full method on the same seeds?"
+)
+TITLE = "The method: grasp_release on the paper's four tasks"
+EXPERIMENT = "method"
+EXPERIMENTS = [
+    "python launch.py experiment=method variant=grasp_release hydra.sweep.dir=studies/method/records",
+    "python launch.py experiment=method variant=full hydra.sweep.dir=studies/method/records",
+]
+
+HERE = Path(__file__).resolve().parent
+CONF = REPO / "conf"
+METHOD = "grasp_release"
+BASELINE = "full"
+#: The issue's target per task: at least this many of TARGET_SEEDS seeds completed, and finished cleanly.
+TARGET_SEEDS, TARGET_COMPLETED, TARGET_CLEAN = 10, 9, 8
+ALPHA = 0.05
+#: The order of the methods in the tables.
+ORDER = (METHOD, BASELINE)
+
+
+# ------------------------------------------------------------------------------------------- the plan
+
+
+def variants() -> list[str]:
+    """The methods run.sh runs, in its order (``${VARIANTS:-a b}``); else :data:`ORDER`."""
+    m = re.search(r"\$\{VARIANTS:-([^}]*)\}", (HERE / "run.sh").read_text())
+    return m[1].split() if m else list(ORDER)
+
+
+def plan() -> tuple[list[str], list[int]]:
+    """The tasks (without ``paper_``) and the seeds ``experiment=method`` sweeps."""
+    params = sweep_params(EXPERIMENT)
+    tasks = [t.removeprefix("paper_") for t in params.get("task", [])]
+    return ordered(tasks, TASK_ORDER), sorted(int(s) for s in params.get("seed", []))
+
+
+def groups(variant: str = METHOD) -> list[tuple[str, str, str]]:
+    """``(group, member, what it does)`` for each group ``conf/variant/<variant>.yaml`` selects; what it does
+    is the member's own comment (``conf/<group>/<member>.yaml``)."""
+    conf = OmegaConf.load(CONF / "variant" / f"{variant}.yaml")
+    out = []
+    for entry in conf.get("defaults") or []:
+        if not isinstance(entry, dict) and not OmegaConf.is_dict(entry):
+            continue
+        for key, member in dict(entry).items():
+            group = key.split("/")[-1].strip()
+            out.append((group, str(member), _comment(CONF / group / f"{member}.yaml")))
+    return out
+
+
+def _comment(path: Path) -> str:
+    """The leading comment of a config file, its ``@package`` line left out, as one paragraph."""
+    lines = []
+    for line in path.read_text().splitlines():
+        if not line.startswith("#"):
+            break
+        if "@package" not in line:
+            lines.append(line.lstrip("#").strip())
+    return " ".join(lines)
+
+
+def planned_latency() -> float | None:
+    """The latency (s) ``preset=paper_32samples_calibrated`` sets (``planner.latency``)."""
+    value = OmegaConf.select(
+        OmegaConf.load(CONF / "preset" / "paper_32samples_calibrated.yaml"), "planner.latency"
+    )
+    return None if value is None else float(value)
+
+
+# ---------------------------------------------------------------------------------------------- trials
+
+
+def frame(study) -> pd.DataFrame:
+    """Every record of the study, the task without ``paper_``, with ``counted`` (status ok or diverged: a
+    trial that ran, a diverged one not completed), boolean ``completed``, ``finished_cleanly`` and
+    ``failed``, and the object errors in each task's kind (:func:`analysis.release.with_errors`)."""
+    df = study.records()
+    if not len(df):
+        return df.assign(record_path=[], seed=[], counted=[], completed=[], finished_cleanly=[])
+    df = readings(df)
+    df["seed"] = df["seed"].astype(int)
+    df["counted"] = df["status"].isin(COUNTED_STATUSES)
+    ok = df["status"].eq("ok")
+    for c in ("completed", "finished_cleanly", "failed"):
+        values = df[c] if c in df else pd.Series(False, index=df.index)
+        df[c] = values.map(lambda v: isinstance(v, bool | np.bool_) and bool(v)).astype(bool) & ok
+    for c in ("ttf", "cpu_seconds", "failure_time"):
+        df[c] = pd.to_numeric(df[c] if c in df else pd.Series(math.nan, index=df.index), errors="coerce")
+    return release.with_errors(df)
+
+
+def counted(df: pd.DataFrame) -> pd.DataFrame:
+    """The trials that count (:func:`frame`'s ``counted``), of the planned tasks and seeds."""
+    if not len(df):
+        return df
+    tasks, planned_seeds = plan()
+    return df[df["counted"] & df["task"].isin(tasks) & df["seed"].isin(planned_seeds)]
+
+
+def cell(df: pd.DataFrame, task: str, variant: str) -> pd.DataFrame:
+    return df[(df["task"] == task) & (df["variant"] == variant)].sort_values("seed")
+
+
+# ----------------------------------------------------------------------------------------------- prose
+
+
+def what(study) -> str:
+    lines = [
+        f"**The method** (`variant={METHOD}`, `conf/variant/{METHOD}.yaml`) is the paper's full method with "
+        "these groups (each member's own description, from `conf/`):",
+        "",
+    ]
+    lines += [f"- `{g}={m}`: {text}" for g, m, text in groups()]
+    tasks, planned_seeds = plan()
+    lat = planned_latency()
+    lines += [
+        "",
+        f"The paper tasks (`task=paper_*`) select it by default, with `preset=paper_32samples_calibrated` "
+        f"(`preset=paper_32samples` with `planner.latency` = {1e3 * lat:.0f} ms in `conf/`: each plan "
+        "applied that long after the state it was planned from, the paper point's latency calibrated in the "
+        "[plan_cost](../plan_cost/README.md) study). `experiment=method` sweeps "
+        f"{codes(tasks)} x seeds {seeds(planned_seeds)} (seeds vary slowest, so a sweep stopped early "
+        f"holds every task at the seeds it reached), once per method: {codes(variants())} "
+        f"(`studies/method/run.sh`), {len(tasks) * len(planned_seeds) * len(variants())} trials in all.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def codes(items) -> str:
+    """``a``, ``b`` and ``c`` in code type."""
+    return Fmt.listing([f"`{i}`" for i in items])
+
+
+def point(study, df: pd.DataFrame) -> str:
+    """Where the records ran: samples, horizon, latency and replan interval, per method, as recorded."""
+    if not len(df):
+        return "**The point the records ran at**: not measured yet (no records).\n"
+    p = points(df.drop(columns=[c for c in ("_span", "_after", "_final") if c in df]))
+    parts = []
+    for variant in ordered(p["variant"], ORDER):
+        g = p[p["variant"] == variant]
+        at = g.groupby(["samples", "horizon", "latency", "interval"], dropna=False).size()
+        text = "; ".join(
+            f"{s} samples x {h:g} s horizon, each plan applied {1e3 * lat:.0f} ms after its state, "
+            f"a plan every {1e3 * i:.0f} ms ({n} record{'s' if n != 1 else ''})"
+            for (s, h, lat, i), n in at.items()
+        )
+        presets = ", ".join(
+            f"`{x}`" for x in sorted(df.loc[df["variant"] == variant, "preset"].dropna().unique())
+        )
+        parts.append(f"`{variant}`: {text}" + (f" (preset {presets})" if presets else ""))
+    return "**The point the records ran at** (read from them): " + "; ".join(parts) + ".\n"
+
+
+def missing(df: pd.DataFrame) -> str:
+    """What the planned sweep still lacks, per method and task, and the records that do not count."""
+    tasks, planned_seeds = plan()
+    ok = counted(df)
+    lines = []
+    for variant in variants():
+        gaps = []
+        for task in tasks:
+            have = set(cell(ok, task, variant)["seed"]) if len(ok) else set()
+            lack = [s for s in planned_seeds if s not in have]
+            if lack:
+                gaps.append(f"{task} seed{'s' if len(lack) != 1 else ''} {seeds(lack)}")
+        n = sum(len(cell(ok, t, variant)) for t in tasks) if len(ok) else 0
+        total = len(tasks) * len(planned_seeds)
+        lines.append(
+            f"- `{variant}`: {of(n, total)} planned trials kept"
+            + (f"; missing: {'; '.join(gaps)}" if gaps else " (complete)")
+            + "."
+        )
+    if len(df) and (bad := df[~df["counted"]]).shape[0]:
+        lines.append(
+            "- Records that do not count (the trial did not run to its end; re-run them): "
+            + "; ".join(
+                f"{r.task} `{r.variant}` seed {r.seed}: status {r.status}"
+                for r in bad.sort_values("seed").itertuples()
+            )
+            + "."
+        )
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------------------------------ the table
+
+STATS = {
+    "trials": Stat("seed", "n"),
+    "completed": Stat("completed", "count"),
+    "finished cleanly": Stat("finished_cleanly", "count"),
+    "median TTF": Stat("ttf", "median", digits=2),
+    "_span": Stat("_span", "median", scale=1e3, digits=0),
+    "_after": Stat("_after", "median", scale=1e3, digits=0),
+    "_final": Stat("_final", "median", scale=1e3, digits=0),
+    "median CPU-s": Stat("cpu_seconds", "median", digits=0),
+}
+
+
+def target(k: int, c: int, n: int) -> str:
+    """Where ``k`` completed and ``c`` finished cleanly of ``n`` kept seeds leave the issue's target."""
+    left = TARGET_SEEDS - n
+    need_k, need_c = max(0, TARGET_COMPLETED - k), max(0, TARGET_CLEAN - c)
+    if not need_k and not need_c:
+        return "met" + (f" (already, {n} of {TARGET_SEEDS} seeds kept)" if left > 0 else "")
+    if need_k > left or need_c > left:
+        return "missed" + (f" (already, {n} of {TARGET_SEEDS} seeds kept)" if left > 0 else "")
+    return (
+        f"open: {n} of {TARGET_SEEDS} seeds kept; of the {left} left, needs {need_k} more completed "
+        f"and {need_c} more finished cleanly"
+    )
+
+
+def table(df: pd.DataFrame) -> str:
+    ok = counted(df)
+    if not len(ok):
+        return "Not measured yet: no trial of the planned sweep has been kept.\n"
+    t = summarize(ok, by=["task", "variant"], stats=STATS, order={"task": TASK_ORDER, "variant": ORDER})
+    stats = t.attrs["stats"]
+    kinds = ok.attrs.get("error_kinds", {})
+    t.insert(
+        3,
+        "seeds",
+        [seeds(cell(ok, task, v)["seed"]) for task, v in zip(t["task"], t["variant"], strict=True)],
+    )
+    t["median object error: span / after span / final"] = [
+        " / ".join(stats[c].show(r[c]) for c in ("_span", "_after", "_final"))
+        + (" mm" if kinds.get(r["task"]) == "position" else " x 1e-3 (rad, or m for a slide)")
+        for _, r in t.iterrows()
+    ]
+    t["target (≥ 9/10 completed, ≥ 8/10 clean)"] = [
+        target(
+            int(cell(ok, task, v)["completed"].sum()),
+            int(cell(ok, task, v)["finished_cleanly"].sum()),
+            len(cell(ok, task, v)),
+        )
+        for task, v in zip(t["task"], t["variant"], strict=True)
+    ]
+    cpu = t.pop("median CPU-s")
+    t["median CPU-s"] = cpu
+    t = t.drop(columns=["_span", "_after", "_final"])
+    t.attrs["stats"] = {h: s for h, s in stats.items() if h in t}
+    return markdown(t)
+
+
+# ---------------------------------------------------------------------------------------- side by side
+
+
+def smallest_difference(k: int, n: int, alpha: float = ALPHA) -> int | None:
+    """The fewest seeds (of ``n`` a side) by which a count must differ from ``k`` of ``n`` for Barnard's
+    test to give p < ``alpha``; ``None`` where no count can."""
+    for d in range(1, n + 1):
+        for other in (k + d, k - d):
+            if 0 <= other <= n and completion_test(other, n, k, n)[0] < alpha:
+                return d
+    return None
+
+
+def paired(df: pd.DataFrame) -> tuple[str, str]:
+    """The side-by-side table on the seeds both methods have, and its findings."""
+    ok = counted(df)
+    tasks, _ = plan()
+    rows, notes = [], []
+    for task in tasks:
+        a, b = (cell(ok, task, v) if len(ok) else ok for v in (METHOD, BASELINE))
+        if not len(a) or not len(b):
+            continue
+        common = sorted(set(a["seed"]) & set(b["seed"]))
+        if not common:
+            continue
+        a, b = (x[x["seed"].isin(common)].set_index("seed") for x in (a, b))
+        n = len(common)
+        for measure, col in (("completed", "completed"), ("finished cleanly", "finished_cleanly")):
+            k1, k2 = int(a[col].sum()), int(b[col].sum())
+            p, p_min = completion_test(k1, n, k2, n)
+            d, lo, hi = newcombe(k1, n, k2, n)
+            only_a = [s for s in common if a.at[s, col] and not b.at[s, col]]
+            only_b = [s for s in common if b.at[s, col] and not a.at[s, col]]
+            need = smallest_difference(k2, n)
+            power = (
+                "no count could reach p < 0.05"
+                if need is None
+                else f"only a difference of ≥ {need} of {n} seeds could give p < 0.05"
+            )
+            verdict = (
+                f"p < {ALPHA:g}" if p < ALPHA else f"not significant; {power}: little power at these counts"
+            )
+            rows.append(
+                f"| {task} | {measure} | {seeds(common)} | {k1}/{n} / {k2}/{n} | {100 * d:+.0f} "
+                f"[{100 * lo:+.0f}, {100 * hi:+.0f}] | {p:.3g} | {p_min:.3g} | {seeds(only_a)} "
+                f"| {seeds(only_b)} | {verdict} |"
+            )
+            if measure == "completed":
+                notes.append(
+                    f"- **{task}** ({n} seed{'s' if n != 1 else ''} in both): `{METHOD}` completes "
+                    f"{of(k1, n)}, `{BASELINE}` {of(k2, n)}; {100 * d:+.0f} points "
+                    f"[{100 * lo:+.0f}, {100 * hi:+.0f}], "
+                    f"Barnard's p = {p:.3g} ({verdict})."
+                )
+    if not rows:
+        return "", "Not measured yet: no task has trials of both methods on a common seed.\n"
+    cols = (
+        "task", "measure", "seeds in both", f"{METHOD} / {BASELINE}",
+        "difference, points [95 % CI]", "Barnard p", "smallest attainable p",
+        f"seeds only {METHOD}", f"seeds only {BASELINE}", "reading",
+    )  # fmt: skip
+    return pipe_table(cols, "lllrrrrlll", rows), "\n".join(notes) + "\n"
+
+
+# -------------------------------------------------------------------------------------------- failures
+
+
+def outcome(r) -> str:
+    if not r.counted:
+        return f"status {r.status} (did not run to its end)"
+    parts = ["completed, not settled" if r.completed else "not completed"]
+    if r.status != "ok":
+        parts.append(f"status {r.status}")
+    if pd.notna(r.ttf):
+        parts.append(f"TTF {r.ttf:.2f}")
+    if r.failed and pd.notna(r.failure_time):
+        parts.append(f"contact lost at {r.failure_time:.1f} s")
+    ms = [c[len("milestone_") :] for c in r._fields if c.startswith("milestone_")]
+    reached = [m for m in ms if getattr(r, f"milestone_{m}") is True]
+    if ms:
+        parts.append("milestones reached: " + (", ".join(reached) if reached else "none"))
+    return "; ".join(parts)
+
+
+def failures(study, df: pd.DataFrame) -> str:
+    if not len(df):
+        return "Not measured yet.\n"
+    bad = df[~df["counted"] | ~df["completed"] | df["failed"]]
+    if not len(bad):
+        return f"None: every one of the {len(df)} trials completed without a TTF failure.\n"
+    bad = bad.assign(_t=bad["task"].map({t: i for i, t in enumerate(TASK_ORDER)}).fillna(99))
+    bad = bad.assign(_v=bad["variant"].map({v: i for i, v in enumerate(ORDER)}).fillna(99))
+    out = []
+    for r in bad.sort_values(["_t", "_v", "seed"]).itertuples():
+        run = Path(r.record_path).parent
+        name = f"timeline_{r.task}_{r.variant}_seed{r.seed}.png"
+        link = study.draw(
+            name,
+            lambda path, run=run: timeline(run, path),
+            f"timeline: {r.task}, {r.variant}, seed {r.seed}",
+            data=run / "timeseries.npz",
+        )
+        head = f"- **{r.task}, `{r.variant}`, seed {r.seed}**: {outcome(r)}."
+        if link is None:
+            rel = run.relative_to(REPO) if run.is_relative_to(REPO) else run
+            head += (
+                f" Timeline not drawn: its time series (`{rel}/timeseries.npz`) is not on this machine. "
+                f"Re-make it: `python launch.py experiment=method variant={r.variant} "
+                f"'hydra.sweeper.params.task=\"paper_{r.task}\"' 'hydra.sweeper.params.seed=\"{r.seed}\"' "
+                f"hydra.sweep.dir=/tmp/method_rerun`, copy the run's `timeseries.npz` into `{rel}/` and run "
+                "`python -m analysis.study method` (the same trial bit for bit only on a machine like the "
+                "one that ran it)."
+            )
+            out.append(head)
+            continue
+        text = (study.dir / "figures" / name).with_suffix(".txt")
+        if text.is_file():
+            lines = text.read_text().splitlines()[1:]
+            head += " " + " ".join(lines)
+        out += [head, "", f"  {link}", ""]
+    return "\n".join(out).rstrip("\n") + "\n"
+
+
+# ---------------------------------------------------------------------------------------------- report
+
+
+def findings(df: pd.DataFrame) -> str:
+    ok = counted(df)
+    tasks, planned_seeds = plan()
+    if not len(ok):
+        return (
+            f"Not measured yet: no records. The target is per task ≥ {TARGET_COMPLETED}/{TARGET_SEEDS} "
+            f"completed and ≥ {TARGET_CLEAN}/{TARGET_SEEDS} finished cleanly for `{METHOD}`.\n"
+        )
+    out = []
+    verdicts = {}
+    for task in tasks:
+        g = cell(ok, task, METHOD)
+        if not len(g):
+            out.append(f"- **{task}**: `{METHOD}` not measured yet.")
+            continue
+        k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
+        verdicts[task] = target(k, c, n)
+        out.append(
+            f"- **{task}**: `{METHOD}` completes {of(k, n)} and finishes {of(c, n)} cleanly "
+            f"(median {median(g['cpu_seconds'])} CPU-s a trial); target {verdicts[task]}."
+        )
+    met = [t for t, v in verdicts.items() if v.startswith("met")]
+    missed = [t for t, v in verdicts.items() if v.startswith("missed")]
+    head = (
+        f"Of the {len(tasks)} tasks, the target is met on {len(met)} ({', '.join(met) or 'none'}), missed on "
+        f"{len(missed)} ({', '.join(missed) or 'none'}) and open on {len(tasks) - len(met) - len(missed)}."
+    )
+    return head + "\n\n" + "\n".join(out) + "\n"
+
+
+def report(study) -> str:
+    df = frame(study)
+    ok = counted(df)
+    side, notes = paired(df)
+    per_seed = release.paired_markdown(ok, error="final", order=ORDER, unpaired=True) if len(ok) else ""
+    return (
+        what(study)
+        + "\n"
+        + point(study, df)
+        + "\n"
+        + study.provenance(df)
+        + "\n\nWhat is kept of the planned sweep:\n\n"
+        + missing(df)
+        + "\n## What the records show\n\n"
+        + findings(df)
+        + "\n## Per task and method\n\n"
+        "Trials: those that ran to their end (a diverged trial counts, not completed), of the planned seeds. "
+        "The object error is the free body's position (mm), or on the doorknob its articulations "
+        "(x 1e-3 rad, or m for a slide); medians over the trials. The target is the issue's: "
+        f"≥ {TARGET_COMPLETED} of {TARGET_SEEDS} seeds completed and ≥ {TARGET_CLEAN} of {TARGET_SEEDS} "
+        "finished cleanly; with fewer seeds kept, whether it can still be met.\n\n"
+        + table(df)
+        + f"\n## `{METHOD}` against `{BASELINE}` on the same seeds\n\n"
+        "Per task, on the seeds both methods have: the counts, the difference in rate "
+        f"(`{METHOD}` − `{BASELINE}`, points) with Newcombe's 95 % interval, Barnard's exact two-sided p "
+        "(`analysis.inference`; the seeds are paired, the test treats the two sides as independent samples) "
+        "and the smallest p any outcome could give at these counts; the seeds only one method completes "
+        "(or finishes cleanly).\n\n"
+        + (side + "\n" if side else "")
+        + notes
+        + "\n## Per seed\n\n"
+        + (
+            "The final object error (mm, or x 1e-3 on the doorknob) and how each trial ended (clean = "
+            "finished cleanly, done = completed but not settled, failed = not completed); blank: not run "
+            "yet.\n\n" + per_seed
+            if per_seed
+            else "Not measured yet.\n"
+        )
+        + "\n## Failures\n\n"
+        "Every trial that did not complete or lost contact (a TTF failure), with its timeline "
+        "(`python -m analysis.timeline`) where its time series is on this machine or the figure is kept; "
+        "the time series are not kept in git.\n\n" + failures(study, df)
+    )
+
+
+def glance(study) -> list[dict]:
+    """`variant=grasp_release` per paper task, where it has trials."""
+    ok = counted(frame(study))
+    rows = []
+    for task in plan()[0]:
+        g = cell(ok, task, METHOD) if len(ok) else ok
+        if len(g):
+            rows.append(
+                glance_row(
+                    f"paper {task}",
+                    f"`preset=paper_32samples_calibrated variant={METHOD}` (the default)",
+                    g.assign(compute=g["cpu_seconds"]),
+                )
+            )
+    return rows
