@@ -160,7 +160,10 @@ def point(study, df: pd.DataFrame) -> str:
     """Where the records ran: samples, horizon, latency and replan interval, per method, as recorded."""
     if not len(df):
         return "**The point the records ran at**: not measured yet (no records).\n"
-    p = points(df.drop(columns=[c for c in ("_span", "_after", "_final") if c in df]))
+    try:
+        p = points(df.drop(columns=[c for c in ("_span", "_after", "_final") if c in df]))
+    except ValueError:  # no record with a planner config (none ran to its end)
+        return "**The point the records ran at**: not readable (no record has a planner config).\n"
     parts = []
     for variant in ordered(p["variant"], ORDER):
         g = p[p["variant"] == variant]
@@ -385,8 +388,8 @@ def failures(study, df: pd.DataFrame) -> str:
             continue
         text = (study.dir / "figures" / name).with_suffix(".txt")
         if text.is_file():
-            lines = text.read_text().splitlines()[1:]
-            head += " " + " ".join(lines)
+            lines = text.read_text().splitlines()[1:]  # its first line repeats the trial
+            head += " The timeline's diagnosis: " + "; ".join(lines) + "."
         out += [head, "", f"  {link}", ""]
     return "\n".join(out).rstrip("\n") + "\n"
 
