@@ -376,6 +376,15 @@ def test_release_table_counts_the_end_of_each_variant(tmp_path):
     assert [t.get_text() for t in ax.get_xticklabels()] == ["full", "release"]
     dots = sum(len(c.get_offsets()) for c in ax.collections)
     assert dots == 6  # every trial, whatever its end
+    # the final error instead, the variants in a given order, and a seed only one variant has
+    _write(tmp_path, "release3", _record(3, new=True, variant="release", settled=True, finished_cleanly=True))
+    loaded = fig3_load(tmp_path)
+    final = paired_markdown(loaded, error="final", order=("release", "full"), unpaired=True).splitlines()
+    assert final[0] == "| task | seed | release | full |" and len(final) == 2 + 4
+    assert final[3].startswith("| apple | 1 | 20 clean | ") and final[-1].endswith(" clean |  |")
+    assert len(paired_markdown(loaded).splitlines()) == 2 + 3  # paired only, by default
+    with pytest.raises(ValueError, match="error must be"):
+        paired_markdown(loaded, error="span")
 
 
 def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():

@@ -153,3 +153,23 @@ def test_old_labels_go_through_the_projects_label_map() -> None:
     assert names == ["release_flat", "release_flat", "full", "wrist_acquire"]
 
 
+def test_a_figure_of_local_only_data_is_drawn_where_the_data_is_and_kept_elsewhere(tmp_path) -> None:
+    """``Study.draw(data=...)``: drawn (and linked) where the data file exists; where it does not, the kept
+    figure is linked without drawing, and with no kept figure there is no link (``None``)."""
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "report.py").write_text(
+        'TITLE = "t"\nEXPERIMENTS = []\ndef report(study):\n  return ""\n'
+    )
+    s = Study("s", tmp_path, drawing=True)
+    drawn = []
+
+    def make(path):
+        drawn.append(path)
+        path.write_bytes(b"png")
+
+    data = tmp_path / "series.npz"
+    assert s.draw("f.png", make, "alt", data=data) is None and not drawn
+    data.write_bytes(b"x")
+    assert s.draw("f.png", make, "alt", data=data) == "![alt](figures/f.png)" and len(drawn) == 1
+    data.unlink()
+    assert s.draw("f.png", make, "alt", data=data) == "![alt](figures/f.png)" and len(drawn) == 1

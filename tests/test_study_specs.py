@@ -24,10 +24,33 @@ def test_release_flat_records_are_shown_as_release_flat_and_no_others() -> None:
 
 
 def test_the_glance_rows_name_a_configuration_and_its_counts() -> None:
-    for name in ("operating_point", "stapler", "release"):
+    for name in ("operating_point", "stapler", "release", "method"):
         for row in Study(name).glance():
             assert row["configuration"] and row["task"].startswith("paper ")
             done, n = map(int, row["completed"].split("/"))
             clean, n2 = map(int, row["finished cleanly"].split("/"))
             assert n == n2 > 0 and clean <= done <= n
             assert float(row["median CPU-s per trial"]) > 0
+
+
+def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_target() -> None:
+    """studies/method: the method's groups come from ``conf/variant/grasp_release.yaml``, the plan from
+    ``experiment=method``; the issue's target (>= 9/10 completed, >= 8/10 clean) is met, missed or still
+    open by the seeds left."""
+    spec = Study("method").spec
+    assert {g: m for g, m, _ in spec.groups()} == {
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "flat",
+    }
+    assert all(text for _, _, text in spec.groups())
+    tasks, seeds = spec.plan()
+    assert tasks == ["doorknob", "apple", "bottle", "stapler"] and seeds == list(range(10))
+    assert spec.variants() == ["grasp_release", "full"]
+    assert spec.target(9, 8, 10) == "met" and spec.target(10, 7, 10) == "missed"
+    assert spec.target(9, 8, 9).startswith("met (already") and spec.target(2, 1, 4).startswith(
+        "missed (already"
+    )
+    assert spec.target(4, 4, 4).startswith("open: 4 of 10 seeds kept; of the 6 left, needs 5 more completed")
+    # Barnard's test at 10 a side: 0 of 10 against 4 of 10 is the least difference it calls (p < 0.05)
+    assert spec.smallest_difference(0, 10) == 4 and spec.smallest_difference(1, 2) is None
