@@ -84,6 +84,19 @@ def _comment(path: Path) -> str:
     return " ".join(lines)
 
 
+def task_defaults(group: str) -> dict[str, str]:
+    """Per paper task (``conf/task/paper_<task>.yaml``, the task without ``paper_``), the member of
+    ``group`` (``variant``, ``preset``) its defaults select, where it selects one."""
+    out = {}
+    for path in sorted((CONF / "task").glob("paper_*.yaml")):
+        for entry in OmegaConf.load(path).get("defaults") or []:
+            if OmegaConf.is_dict(entry):
+                for key, member in entry.items():
+                    if str(key).split("@")[0].removeprefix("override ").strip("/ ") == group:
+                        out[path.stem.removeprefix("paper_")] = str(member)
+    return {t: out[t] for t in ordered(out, TASK_ORDER)}
+
+
 def planned_latency() -> float | None:
     """The latency (s) ``preset=paper_32samples_calibrated`` sets (``planner.latency``)."""
     value = OmegaConf.select(
@@ -140,7 +153,7 @@ def what(study) -> str:
     lat = planned_latency()
     lines += [
         "",
-        f"The paper tasks (`task=paper_*`) select it by default, with `preset=paper_32samples_calibrated` "
+        f"{by_default()}, with `preset=paper_32samples_calibrated` "
         f"(`preset=paper_32samples` with `planner.latency` = {1e3 * lat:.0f} ms in `conf/`: each plan "
         "applied that long after the state it was planned from, the paper point's latency calibrated in the "
         "[plan_cost](../plan_cost/README.md) study). `experiment=method` sweeps "
@@ -149,6 +162,17 @@ def what(study) -> str:
         f"(`studies/method/run.sh`), {len(tasks) * len(planned_seeds) * len(variants())} trials in all.",
     ]
     return "\n".join(lines) + "\n"
+
+
+def by_default() -> str:
+    """Which paper tasks select the method and the preset by default (their ``conf/task`` defaults)."""
+    variant, preset = task_defaults("variant"), task_defaults("preset")
+    chosen = [t for t in variant if variant[t] == METHOD and preset.get(t) == "paper_32samples_calibrated"]
+    if not chosen:
+        return "No paper task selects it by default (`conf/task/paper_*.yaml`); it is run"
+    every = set(chosen) == {p.stem.removeprefix("paper_") for p in (CONF / "task").glob("paper_*.yaml")}
+    which = "Every paper task" if every else f"The paper tasks {codes(chosen)}"
+    return f"{which} (`conf/task/paper_*.yaml`) select{'s' if every else ''} it by default"
 
 
 def codes(items) -> str:
@@ -177,7 +201,14 @@ def point(study, df: pd.DataFrame) -> str:
             f"`{x}`" for x in sorted(df.loc[df["variant"] == variant, "preset"].dropna().unique())
         )
         parts.append(f"`{variant}`: {text}" + (f" (preset {presets})" if presets else ""))
-    return "**The point the records ran at** (read from them): " + "; ".join(parts) + ".\n"
+    lat = planned_latency()
+    same = lat is not None and bool((p["latency"].round(3) == round(lat, 3)).all())
+    check = (
+        f" Every record's latency is the {1e3 * lat:.0f} ms the preset sets."
+        if same
+        else f" **Not every record ran at the preset's latency** ({Fmt.num(1e3 * (lat or math.nan), 0)} ms)."
+    )
+    return "**The point the records ran at** (read from them): " + "; ".join(parts) + "." + check + "\n"
 
 
 def missing(df: pd.DataFrame) -> str:
@@ -341,7 +372,9 @@ def paired(df: pd.DataFrame) -> tuple[str, str]:
 def outcome(r) -> str:
     if not r.counted:
         return f"status {r.status} (did not run to its end)"
-    parts = ["completed, not settled" if r.completed else "not completed"]
+    parts = ["not completed"]
+    if r.completed:
+        parts = ["completed, finished cleanly" if r.finished_cleanly else "completed, not finished cleanly"]
     if r.status != "ok":
         parts.append(f"status {r.status}")
     if pd.notna(r.ttf):
