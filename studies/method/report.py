@@ -493,8 +493,8 @@ def report(study) -> str:
         + "\n## Per seed\n\n"
         + (
             "The final object error (mm, or x 1e-3 on the doorknob) and how each trial ended (clean = "
-            "finished cleanly, done = completed but not settled, failed = not completed); blank: not run "
-            "yet.\n\n" + per_seed
+            "finished cleanly, done = completed but not settled, failed = not completed); blank: no trial "
+            "that counts (not run yet, or among the records that do not count, above).\n\n" + per_seed
             if per_seed
             else "Not measured yet.\n"
         )
