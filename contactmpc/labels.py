@@ -42,15 +42,27 @@ OLD_VARIANTS: dict[str, dict[str, str]] = {
     "release_scheduled": {"variant": "full", "release": "scheduled"},
     "release_flat": {"variant": "full", "release": "flat"},
     "release_backoff": {"variant": "full", "release": "backoff"},
-    "grasp_release": {"variant": "grasp_release", "wrist": "acquire", "shaping": "clearance", "release": "flat"},
 }
 """Variant labels of records made before the groups (``conf/variant`` had one file per combination):
 the labels the same trial gets now. A label not here is today's variant with the groups' defaults."""
 
-# (variant built on, *groups) -> the old variant's name
+NAMED_METHODS: dict[str, dict[str, str]] = {
+    "grasp_release": {
+        "variant": "grasp_release",
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "flat",
+    },
+}
+"""Variants of today that name a combination of groups (``conf/variant/<name>.yaml``'s defaults), read
+as :data:`OLD_VARIANTS` are: the method's name for those groups."""
+
+_LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}
+
+# (variant built on, *groups) -> the old variant's (or the named method's) name
 _NAMES: dict[tuple[str, ...], str] = {
     (NAMED_VARIANTS.get(new["variant"], new["variant"]), *(new.get(g, d) for g, d in GROUPS.items())): old
-    for old, new in OLD_VARIANTS.items()
+    for old, new in _LABELS.items()
 }
 
 
@@ -66,10 +78,10 @@ def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
         labels: the record's fields (or any mapping with ``variant`` and the groups' names).
     """
     variant = labels.get("variant")
-    if variant in OLD_VARIANTS:
+    if variant in _LABELS:
         # an old variant's name, or a method's name that method_name gave: its groups, where the labels
         # leave them at their defaults (so reading a method's own name again gives the same method)
-        old = OLD_VARIANTS[variant]
+        old = _LABELS[variant]
         given = {g: labels.get(g) for g in GROUPS}
         return {
             "variant": old["variant"],

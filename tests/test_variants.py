@@ -268,3 +268,19 @@ def test_the_release_node_has_a_schema():
     assert isinstance(instantiate(node), ReleaseSchedule)
     with pytest.raises(ConfigCompositionException, match="sampler.release.paus"):
         compose_config(["release=open", "sampler.release.paus=1.0"])
+
+
+@pytest.mark.parametrize("task", ["paper_apple", "paper_bottle", "paper_doorknob", "paper_stapler"])
+def test_a_paper_task_chooses_the_project_s_method_and_the_command_line_wins(task):
+    choices = compose_config([f"task={task}"], return_hydra_config=True).hydra.runtime.choices
+    assert (choices.variant, choices.preset) == ("grasp_release", "paper_32samples_calibrated")
+    assert (choices.wrist, choices.shaping, choices.release) == ("acquire", "clearance", "flat")
+    cfg = compose_config([f"task={task}", "variant=full", "preset=paper"], return_hydra_config=True)
+    assert (cfg.hydra.runtime.choices.variant, cfg.hydra.runtime.choices.preset) == ("full", "paper")
+    assert (cfg.hydra.runtime.choices.shaping, cfg.hydra.runtime.choices.release) == ("none", "none")
+    assert cfg.planner.num_samples == 128
+
+
+def test_a_synthesised_task_keeps_the_lite_preset_and_no_variant():
+    choices = compose_config(["task=apple"], return_hydra_config=True).hydra.runtime.choices
+    assert (choices.variant, choices.preset, choices.shaping) == (None, "lite", "none")

@@ -20,12 +20,17 @@ TITLE = "The cheap screen of the method levers (issue 33)"
 EXPERIMENTS = ["bash studies/method_screen/run_screen.sh"]
 #: The full trials of the same variants: the full method at preset=paper_32samples (fig3_paper) and the
 #: stapler's wrist_clearance at 32 samples (stapler/records/stapler_clearance).
-RECORDS = ["fig3_paper", "stapler"]
+#: The clearance variant at the paper point (128 samples): the operating_point study's
+#: `operating_point=paper`.
+RECORDS = ["fig3_paper", "stapler", "operating_point"]
 
 HERE = Path(__file__).resolve().parent
 SCRIPT = HERE / "run_screen.sh"
 TASKS = ("paper_stapler", "paper_bottle")
 BASELINES = ("full", "wrist_clearance")
+#: Pairs whose order in the screen is checked against full trials: the clearance term against the paper's
+#: method, and the clearance variant at the paper point's 128 samples against 32.
+PAIRS = (("full", "wrist_clearance"), ("wrist_clearance", "wrist_clearance samples128"))
 #: The lever options (column, default, the short name a lever's label gives them).
 LEVER_KEYS = (
     ("planner.iterations", 1, "it"),
@@ -33,6 +38,7 @@ LEVER_KEYS = (
     ("planner.early_stop", 0.0, "stop"),
     ("planner.update", "max", ""),
     ("sampler.noise_ramp", 1.0, "ramp"),
+    ("planner.num_samples", 32.0, "samples"),
 )
 #: Where each lever option comes from (issue 33).
 SOURCES = {
@@ -41,6 +47,7 @@ SOURCES = {
     "planner.early_stop": "SPIDER (arXiv 2511.09484), DIAL-MPC",
     "planner.update": "SPIDER (softmax over the top elites)",
     "sampler.noise_ramp": "judo (`optimizers/overrides.py`)",
+    "planner.num_samples": "the paper point's samples (the stapler study)",
     "variant": "this project (the stapler study)",
 }
 
@@ -71,11 +78,15 @@ def script() -> dict:
     """What ``run_screen.sh`` runs: its common overrides, its levers (each a list of overrides) and seeds."""
     text = SCRIPT.read_text()
     common = re.search(r"COMMON=\((.*?)\)", text, re.S)[1]
-    levers = re.search(r"LEVERS=\((.*?)\n\)", text, re.S)[1]
     seeds_text = re.search(r"SEEDS:-([0-9 ]+)\}", text)[1]
+    levers: list[list[str]] = []  # every LEVERS set (SET=full, SET=clearance), the paper's method's first
+    for block in sorted(re.findall(r"LEVERS=\((.*?)\n\)", text, re.S), key=lambda b: "variant=full" not in b):
+        for line in block.strip().splitlines():
+            if (overrides := shlex.split(line.strip().strip('"'))) not in levers:
+                levers.append(overrides)
     return {
         "common": dict(o.split("=", 1) for o in shlex.split(common) if "=" in o),
-        "levers": [shlex.split(line.strip().strip('"')) for line in levers.strip().splitlines()],
+        "levers": levers,
         "seeds": [int(s) for s in seeds_text.split()],
     }
 
@@ -87,6 +98,8 @@ def frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     if not len(df):
         return df, df
     df = df[df["task"].isin(TASKS)].copy()
+    if "planner.num_samples" not in df and "num_samples" in df:
+        df["planner.num_samples"] = df["num_samples"]
     for key, _, _ in LEVER_KEYS:
         if key not in df:
             df[key] = None
@@ -95,13 +108,19 @@ def frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     own = str(study.dir / "records")
     screen = df[df["record_path"].astype(str).str.startswith(own)]
     full = df[~df["record_path"].astype(str).str.startswith(own)]
-    full = full[
-        (full["fidelity"] == "paper")
-        & (full["preset"] == "paper_32samples")
+    chosen = (
+        (full["preset"] == "paper_32samples")
         & full["operating_point"].isna()
-        & full["variant"].isin(BASELINES)
         & (full["lever"] == full["variant"])
-    ]
+    )
+    # the clearance variant at the paper point (preset=paper, the operating-point map's `paper` point:
+    # 128 samples, the same 96 ms latency)
+    paper_point = (
+        (full["preset"] == "paper")
+        & full["operating_point"].isin([None, "paper"])
+        & (full["lever"] == "wrist_clearance samples128")
+    )
+    full = full[(full["fidelity"] == "paper") & full["variant"].isin(BASELINES) & (chosen | paper_point)]
     if "job.start_before_contact" in full:
         full = full[full["job.start_before_contact"].isna()]
     return screen, full
@@ -135,15 +154,16 @@ def _k(df: pd.DataFrame, column: str) -> tuple[int, int]:
 
 
 def ranking(screen: pd.DataFrame, full: pd.DataFrame) -> str:
-    """Whether the screen orders the two baselines as the full trials do, per task and outcome."""
-    a, b = BASELINES
+    """Whether the screen orders each pair of :data:`PAIRS` as the full trials do, per task and outcome."""
     out = []
-    for task in TASKS:
+    for (a, b), task in ((pair, task) for pair in PAIRS for task in TASKS):
+        if not all(len(screen[(screen["task"] == task) & (screen["lever"] == v)]) for v in (a, b)):
+            continue
         words = []
         for column, word in (("lifted", "lifted"), ("completed", "completed")):
             fracs = {}
             for where, df in (("screen", screen), ("full", full)):
-                for v in BASELINES:
+                for v in (a, b):
                     k, n = _k(df[(df["task"] == task) & (df["lever"] == v)], column)
                     fracs[where, v] = (k, n)
             missing = [f"{w} trials of `{v}`" for (w, v), (_, n) in fracs.items() if n == 0]
@@ -167,7 +187,7 @@ def ranking(screen: pd.DataFrame, full: pd.DataFrame) -> str:
                 else "an order where the full trials tie"
             )
             words.append(f"{word} ({shown}): **{verdict}**")
-        out.append(f"- {task}: " + "; ".join(words) + ".")
+        out.append(f"- `{b}` against `{a}`, {task}: " + "; ".join(words) + ".")
     return "\n".join(out) + "\n"
 
 
@@ -220,15 +240,16 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
             f"(reference time), the full trials lift it {of(*_k(ft, 'lifted'))} and lose it at "
             f"{span(ft['failure_time'], '{:.1f}')} s."
         )
-    for task in TASKS:
-        base = screen[(screen["task"] == task) & (screen["lever"] == "full")]
-        if not len(base):
+    for task, on in ((task, on) for on in BASELINES for task in TASKS):
+        base = screen[(screen["task"] == task) & (screen["lever"] == on)]
+        levers = {n for n in screen.loc[screen["task"] == task, "lever"] if n.split()[0] == on and n != on}
+        if not len(base) or not levers:
             continue
         bl, bn = _k(base, "lifted")
         bc, _ = _k(base, "completed")
         base_cpu = counted(base)["cpu_seconds"].median()
         items = []
-        for name in sorted(set(screen.loc[screen["task"] == task, "lever"]) - {"full"}):
+        for name in sorted(levers):
             g = screen[(screen["task"] == task) & (screen["lever"] == name)]
             lk, ln = _k(g, "lifted")
             ck, cn = _k(g, "completed")
@@ -238,7 +259,7 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
                 f"{ratio(counted(g)['cpu_seconds'].median(), base_cpu, '{:.2f}')}"
             )
         out.append(
-            f"- {task}, against `full` in the screen (lifted {of(bl, bn)}, completed {of(bc, bn)}, "
+            f"- {task}, against `{on}` in the screen (lifted {of(bl, bn)}, completed {of(bc, bn)}, "
             "median TTF "
             f"{median(counted(base)['ttf'], '{:.2f}')}): " + "; ".join(items) + "."
         )
@@ -287,7 +308,8 @@ def report(study) -> str:
         f"**Cost**: a screen trial of `variant=full` costs {cost(screen, full)}.\n\n"
         f"{study.provenance(pd.concat([screen, full]))}\n\n"
         "## The levers screened\n\n"
-        "Each on top of `variant=full`, except the clearance baseline.\n\n"
+        "Each on top of `variant=full` (`SET=full`, the default) or of `variant=wrist_clearance` "
+        "(`SET=clearance`, on the stapler only), whose first word it names.\n\n"
         + levers_table(spec)
         + f"\n`planner.update=elite_softmax`{elite_options(screen)}. {rollouts}the fixed "
         f"{latency} ms latency of `preset=paper_32samples` (median of the screen's records) is the paper "
@@ -300,10 +322,10 @@ def report(study) -> str:
         + "\n## The full trials of the same variants\n\n"
         "The text's reading (`fidelity=paper`) at `preset=paper_32samples`, no operating point, no lever "
         "option: `variant=full` from the Fig. 3 study, the stapler's `variant=wrist_clearance` from the "
-        "stapler study (`stapler_clearance`).\n\n"
-        + table(full, list(BASELINES))
-        + "\n## Does the screen rank the baselines as full trials do?\n\n"
-        f"`{BASELINES[1]}` against `{BASELINES[0]}`, by the fraction lifted and the fraction completed:\n\n"
+        "stapler study (`stapler_clearance`; at 128 samples, `preset=paper`, its paper point).\n\n"
+        + table(full, list(dict.fromkeys(full["lever"])) if len(full) else list(BASELINES))
+        + "\n## Does the screen rank the levers as full trials do?\n\n"
+        "Each pair by the fraction lifted and the fraction completed, in the screen and in full trials:\n\n"
         + ranking(screen, full)
         + "\n## What the records show\n\n"
         + findings(screen, full)
