@@ -191,6 +191,50 @@ def ranking(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     return "\n".join(out) + "\n"
 
 
+def verdict(screen: pd.DataFrame, full: pd.DataFrame) -> str:
+    """How many pairs the screen orders as the full trials do (by lifted), and which levers lift the
+    stapler more often than the base they are on: the screen's use, computed from the counts."""
+    same, seen = [], 0
+    for a, b in PAIRS:
+        rates = {}
+        for where, df in (("screen", screen), ("full", full)):
+            for v in (a, b):
+                k, n = _k(df[(df["task"] == "paper_stapler") & (df["lever"] == v)], "lifted")
+                rates[where, v] = k / n if n else None
+        if None in rates.values():
+            continue
+        seen += 1
+        order = {w: np.sign(rates[w, b] - rates[w, a]) for w in ("screen", "full")}
+        if order["screen"] == order["full"]:
+            same.append(f"`{b}` against `{a}`")
+    better = []
+    for on in BASELINES:
+        base = screen[(screen["task"] == "paper_stapler") & (screen["lever"] == on)]
+        if not len(base):
+            continue
+        bk, bn = _k(base, "lifted")
+        for name in sorted({n for n in screen["lever"] if n.split()[0] == on and n != on}):
+            k, n = _k(screen[(screen["task"] == "paper_stapler") & (screen["lever"] == name)], "lifted")
+            if n and k / n > bk / bn:
+                better.append(f"`{name}` ({of(k, n)} against {of(bk, bn)})")
+    if not seen:
+        return ""
+    return (
+        f"- **The screen orders {len(same)} of the {seen} pairs with full trials on both sides as the full "
+        "trials do** (the stapler, by the fraction lifted)"
+        + (f": {Fmt.listing(same)}" if same else "")
+        + ". "
+        + (
+            "Levers that lift the stapler more often than their base in the screen: "
+            + Fmt.listing(better)
+            + "."
+            if better
+            else "No lever lifts the stapler more often than its base in the screen."
+        )
+        + "\n"
+    )
+
+
 def levers_table(spec: dict) -> str:
     rows = ["| lever (as the tables name it) | overrides | source |", "|---|---|---|"]
     for overrides in spec["levers"]:
@@ -328,5 +372,6 @@ def report(study) -> str:
         "Each pair by the fraction lifted and the fraction completed, in the screen and in full trials:\n\n"
         + ranking(screen, full)
         + "\n## What the records show\n\n"
+        + verdict(screen, full)
         + findings(screen, full)
     )
