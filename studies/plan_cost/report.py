@@ -871,8 +871,36 @@ def map_section(study) -> list[str]:
                 + Fmt.listing([f"{1e3 * x:.0f} ms {of(by[x]['completed'].sum(), len(by[x]))}" for x in above])
                 + f" against {base_text}."
             )
+        clean = {lat: int((by[lat]["finished_cleanly"] == True).sum()) for lat in by}  # noqa: E712
+        clean_same = int((same["finished_cleanly"] == True).sum()) if len(same) else None  # noqa: E712
+        prose.append(
+            f"- {task} {variant}, finished cleanly: {of(clean[CHOSEN[3]], len(base))} at 96 ms"
+            + (
+                f" ({of(clean_same, len(same))} on seeds {seeds(MAP_SEEDS)})"
+                if clean_same is not None
+                else ""
+            )
+            + "; "
+            + Fmt.listing([f"{1e3 * x:.0f} ms {of(clean[x], len(by[x]))}" for x in above])
+            + (
+                f". At the calibrated {1e3 * calibrated:.0f} ms: completed "
+                f"{of(int(by[calibrated]['completed'].sum()), len(by[calibrated]))}, finished cleanly "
+                f"{of(clean[calibrated], len(by[calibrated]))}."
+                if calibrated in by
+                else "."
+            )
+        )
     if not prose:
         prose.append("- Where the method stops working: not measured yet (no map trial above 96 ms is kept).")
+    task_conf = (HERE.parent.parent / "conf" / "task" / "paper_apple.yaml").read_text()
+    if f"preset: {CALIBRATED['latency']}" in task_conf:
+        prose.append(
+            f"- **The chosen preset, at the calibrated latency**: the paper tasks run "
+            f"`preset={CALIBRATED['latency']}` by default (32 samples, {1e3 * calibrated:.0f} ms), the "
+            "method study's point; a 32-sample plan costs a quarter of the paper point's, so this is the "
+            "paper's loop with a quarter of its samples, not a faster loop (on 7 threads of this CPU its own "
+            f"latency would be about {1e3 * calibrated / 4:.0f} ms)."
+        )
     if missing:
         prose.append("- Not measured yet: " + Fmt.listing(missing) + ".")
     return [*out, *prose]
