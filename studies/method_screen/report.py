@@ -153,6 +153,25 @@ def _k(df: pd.DataFrame, column: str) -> tuple[int, int]:
     return int(known.sum()), len(known)
 
 
+def orders(
+    screen: pd.DataFrame, full: pd.DataFrame, task: str, pair: tuple[str, str], column: str
+) -> tuple[dict, dict | None]:
+    """Each side's count ``(k, n)`` of ``column`` per lever of ``pair`` in the screen and in full trials,
+    and the sign of ``b - a``'s rate in each (``None`` where a side has no trial of a lever)."""
+    fracs = {
+        (where, v): _k(df[(df["task"] == task) & (df["lever"] == v)], column)
+        for where, df in (("screen", screen), ("full", full))
+        for v in pair
+    }
+    if any(n == 0 for _, n in fracs.values()):
+        return fracs, None
+    a, b = pair
+    return fracs, {
+        w: np.sign(fracs[w, b][0] / fracs[w, b][1] - fracs[w, a][0] / fracs[w, a][1])
+        for w in ("screen", "full")
+    }
+
+
 def ranking(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     """Whether the screen orders each pair of :data:`PAIRS` as the full trials do, per task and outcome."""
     out = []
@@ -161,22 +180,14 @@ def ranking(screen: pd.DataFrame, full: pd.DataFrame) -> str:
             continue
         words = []
         for column, word in (("lifted", "lifted"), ("completed", "completed")):
-            fracs = {}
-            for where, df in (("screen", screen), ("full", full)):
-                for v in (a, b):
-                    k, n = _k(df[(df["task"] == task) & (df["lever"] == v)], column)
-                    fracs[where, v] = (k, n)
-            missing = [f"{w} trials of `{v}`" for (w, v), (_, n) in fracs.items() if n == 0]
+            fracs, sign = orders(screen, full, task, (a, b), column)
             shown = "; ".join(
                 f"{w}: `{a}` {of(*fracs[w, a])}, `{b}` {of(*fracs[w, b])}" for w in ("screen", "full")
             )
-            if missing:
+            if sign is None:
+                missing = [f"{w} trials of `{v}`" for (w, v), (_, n) in fracs.items() if n == 0]
                 words.append(f"{word} ({shown}): no ranking, no {Fmt.listing(missing)} kept")
                 continue
-            sign = {
-                w: np.sign(fracs[w, b][0] / fracs[w, b][1] - fracs[w, a][0] / fracs[w, a][1])
-                for w in ("screen", "full")
-            }
             verdict = (
                 "the same order"
                 if sign["screen"] == sign["full"]
@@ -196,15 +207,10 @@ def verdict(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     stapler more often than the base they are on: the screen's use, computed from the counts."""
     same, seen = [], 0
     for a, b in PAIRS:
-        rates = {}
-        for where, df in (("screen", screen), ("full", full)):
-            for v in (a, b):
-                k, n = _k(df[(df["task"] == "paper_stapler") & (df["lever"] == v)], "lifted")
-                rates[where, v] = k / n if n else None
-        if None in rates.values():
+        _, order = orders(screen, full, "paper_stapler", (a, b), "lifted")
+        if order is None:
             continue
         seen += 1
-        order = {w: np.sign(rates[w, b] - rates[w, a]) for w in ("screen", "full")}
         if order["screen"] == order["full"]:
             same.append(f"`{b}` against `{a}`")
     better = []
