@@ -525,9 +525,9 @@ def online_section(folder: Path) -> list[str]:
     ]
     slowdowns = set()
     per_cell: dict[tuple[str, float], int] = {}
-    for path in runs:
-        r = json.loads(path.read_text())
-        slowdown = (r.get("config") or {}).get("job", {}).get("slowdown")
+    records = [json.loads(path.read_text()) for path in runs]
+    for path, r in zip(runs, records, strict=True):
+        slowdown = _slowdown(r)
         slowdowns.add(slowdown)
         cell = (f"{r.get('task')} {r.get('variant')}", slowdown)
         per_cell[cell] = per_cell.get(cell, 0) + 1
@@ -554,21 +554,24 @@ def online_section(folder: Path) -> list[str]:
         "The other runs were stopped (SIGSTOP) while these ran, so 'trials at once' counts them though "
         "they did not run." + (" Not measured yet: " + Fmt.listing(missing) + "." if missing else ""),
         "",
-        *threads_needed(runs),
+        *threads_needed(records),
     ]
 
 
-def threads_needed(runs: list[Path]) -> list[str]:
+def _slowdown(record: dict) -> float | None:
+    """An online run's ``job.slowdown``, from its record's config."""
+    return ((record.get("config") or {}).get("job") or {}).get("slowdown")
+
+
+def threads_needed(records: list[dict]) -> list[str]:
     """Per task and variant: the runs completed at each slowdown, the median replan interval, and the
     smallest slowdown at which every run completed (real time on 2 x that many threads of this CPU)."""
     rows = []
-    for path in runs:
-        r = json.loads(path.read_text())
-        slowdown = ((r.get("config") or {}).get("job") or {}).get("slowdown")
+    for r in records:
         rows.append(
             {
                 "run": f"{r.get('task')} {r.get('variant')}",
-                "slowdown": slowdown,
+                "slowdown": _slowdown(r),
                 "completed": bool(r.get("completed")),
                 "interval": r.get("replan_interval_median"),
             }
