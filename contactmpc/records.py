@@ -103,12 +103,12 @@ def with_defaults(flat: dict[str, Any], keys: Iterable[str]) -> dict[str, Any]:
 def _keyword_default(target: str, name: str) -> str | None:
     """The default of keyword ``name`` of the callable ``target`` names, as JSON text; ``None``: none."""
     # imported here: config is not needed to write a record
-    from contactmpc.config import inputs_parameter, locate, parameters
+    from contactmpc.config import locate, parameters
 
     try:
         obj = locate(target)
         param = inspect.signature(obj).parameters.get(name)
-        if param is None and inputs_parameter(obj) is not None:  # a field of the job's inputs object
+        if param is None:  # a field of the job's inputs object, or a base's keyword taken by **kwargs
             param = next((p for p, _ in parameters(obj) if p.name == name), None)
     except (ImportError, TypeError, ValueError):
         return None

@@ -392,3 +392,16 @@ def test_a_sweep_through_the_submitit_local_launcher(tmp_path):
         cwd=REPO_ROOT, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert out.returncode == 0 and "(4 trials)" in out.stdout, out.stderr
+
+
+def test_an_option_a_planner_takes_through_kwargs_reads_as_its_base_s_default():
+    """PredictiveSampling forwards ``**kwargs`` to Planner: a record made before Planner's options
+    (iterations, anneal, early_stop) existed is the same trial at their defaults, not a refused resume."""
+    new = _config("task=apple")
+    old = json.loads(json.dumps(new))
+    for name in ("iterations", "anneal", "early_stop"):
+        assert name in new["job"]["planner"]
+        del old["job"]["planner"][name]
+    assert runs.config_differences(old, new) == []
+    more = _config("task=apple", "planner.iterations=4")
+    assert runs.config_differences(old, more) == ["job.planner.iterations: 4 != 1", "planner.iterations: 4 != 1"]
