@@ -183,7 +183,10 @@ class Trial:
                     seen, earlier = (seen if earlier is None else earlier), seen.copy()
                 if lag:  # the previous plan's targets until this one takes effect
                     previous = planner.targets(t + offsets[:lag])
-                info = planner.plan(t, seen, rng)
+                if lag and planner.compensate_latency:  # plan from where the plant will be then
+                    info = planner.plan(*planner.predict(t, seen, lag * dt), rng)
+                else:
+                    info = planner.plan(t, seen, rng)
                 if not lag:
                     targets = planner.targets(t + offsets)
                 elif lag < per_plan:

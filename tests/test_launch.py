@@ -404,4 +404,7 @@ def test_an_option_a_planner_takes_through_kwargs_reads_as_its_base_s_default():
         del old["job"]["planner"][name]
     assert runs.config_differences(old, new) == []
     more = _config("task=apple", "planner.iterations=4")
-    assert runs.config_differences(old, more) == ["job.planner.iterations: 4 != 1", "planner.iterations: 4 != 1"]
+    assert runs.config_differences(old, more) == [
+        "job.planner.iterations: 4 != 1",
+        "planner.iterations: 4 != 1",
+    ]

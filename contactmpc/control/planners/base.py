@@ -99,6 +99,11 @@ class Planner:
             iterations)`` (SPIDER: 0.1); 1: the same noise in every iteration.
         early_stop: stop iterating once an iteration improves the cost by less than this fraction of
             its nominal's (SPIDER: 0.01); 0: run every iteration.
+        compensate_latency: plan from the state the plant is predicted to be in when the plan takes
+            effect (:meth:`predict`: the planning model rolled forward from the measured state under
+            the committed policy, which the plant follows until then, for the latency), starting the
+            plan's window there; False (the paper, MuJoCo MPC): from the measured state, so a plan
+            spends its first ``latency`` on controls that are never applied. No effect without latency.
     """
 
     needs_rollouts = True
@@ -117,6 +122,7 @@ class Planner:
         iterations: Annotated[int, Ge(1)] = 1,
         anneal: Annotated[float, Gt(0)] = 1.0,
         early_stop: Annotated[float, Ge(0)] = 0.0,
+        compensate_latency: bool = False,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -135,6 +141,7 @@ class Planner:
         self.iterations = int(iterations)
         self.anneal = float(anneal)
         self.early_stop = float(early_stop)
+        self.compensate_latency = bool(compensate_latency)
         self._noise_scale: np.ndarray | None = None  # (Mw, 1) factor on the noise being drawn, or None
 
     # --- the two methods a planner implements ------------------------------------------------
@@ -229,6 +236,24 @@ class Planner:
         ctrl = np.zeros(u.shape[:-1] + (nu,))
         ctrl[..., self._actuators] = u
         return ctrl
+
+    def predict(self, t: float, state: np.ndarray, duration: float) -> tuple[float, np.ndarray]:
+        """Where the committed policy takes the planning model from ``state`` at control time ``t`` in
+        ``duration`` seconds (rounded to whole planning steps): ``(t', state')``, for a plan that takes
+        effect then (:attr:`compensate_latency`). One rollout of ``duration / dt`` steps; where it
+        diverges, or ``duration`` rounds to no step, ``(t, state)`` as given.
+        """
+        n = int(round(duration / self.dt))
+        if n < 1:
+            return t, state
+        times = t + np.arange(n) * self.dt
+        ctrl = self.controls(self.theta[None], self.problem.spline.basis(times))
+        states, _, diverged = self.engine.run(state, ctrl)
+        if diverged[0]:
+            return t, state
+        ahead = states[0, -1].copy()
+        ahead[0] = t + n * self.dt  # the control clock (a rollout's time is the state's plus n steps)
+        return t + n * self.dt, ahead
 
     def evaluate(
         self, state: np.ndarray, t: float, thetas: np.ndarray
