@@ -19,7 +19,9 @@ checks) is built as for ``job=trial``, and its :class:`~contactmpc.plant.Plant`
 (:meth:`~contactmpc.trial.Trial.start_plant`: the draw, stepping, the divergence check and the log's row,
 one row every ``replan_interval`` of control time, so the TTF and milestones are computed as for a
 trial) is used as it is. A configured ``planner.latency`` or
-``latency_model`` is not applied (the real delay is); the trial's ``replan_interval`` sets only the log's
+``latency_model`` is not applied (the real delay is); with ``planner.compensate_latency`` each plan
+starts from its state predicted :meth:`OnlineLoop.expected_latency` ahead (the last plans' median
+compute time). The trial's ``replan_interval`` sets only the log's
 rows and the age beyond which a plan counts as stale. Unlike a trial, an online run is not reproducible:
 which states the planner sees, and when its plans land, depend on how fast the machine is.
 """
@@ -152,7 +154,10 @@ class OnlineLoop:
                         return
                     last, t, state = self._state
                 start = time.perf_counter()
-                info = planner.plan(t, state, rng)
+                if planner.compensate_latency and self.plans:  # plan from where the plant will be
+                    info = planner.plan(*planner.predict(t, state, self.expected_latency()), rng)
+                else:
+                    info = planner.plan(t, state, rng)
                 theta = planner.theta.copy()
                 theta.flags.writeable = False
                 with self._lock:
@@ -162,6 +167,14 @@ class OnlineLoop:
         except BaseException as err:  # noqa: BLE001  (handed to the plant thread, which raises it)
             self._error = err
             self._stop.set()
+
+    def expected_latency(self, recent: int = 5) -> float:
+        """The control time the next plan is expected to take (s): the median compute time of the last
+        ``recent`` plans, in control seconds (wall / ``slowdown``); 0 before the first. With
+        ``planner.compensate_latency`` the planner plans from its state predicted this far ahead."""
+        if not self.plans:
+            return 0.0
+        return float(np.median([p.ready_wall - p.start_wall for p in self.plans[-recent:]])) / self.slowdown
 
     def _publish_state(self, seq: int, t: float, state: np.ndarray) -> None:
         with self._new_state:

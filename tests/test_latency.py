@@ -152,3 +152,64 @@ def test_a_horizon_shorter_than_a_planning_step_stops_the_job_with_one_line(tmp_
     ]
     record = json.loads((run / "trial.json").read_text())
     assert record["status"] == "error" and "planner.horizon" in record["error"]
+
+
+def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect(monkeypatch, scene_for):
+    """planner.compensate_latency: each plan starts at t + latency (its window and its state), from the
+    planning model rolled forward from the measured state under the committed policy; the plant steps
+    as before (each plan in effect from t + latency). Latency 0: the synchronous loop, bit for bit."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.4, frames=11)
+    trial, planner = _trial(scene, ref, duration=0.25, replan_period=0.01, latency=0.07,
+                            compensate_latency=True)  # fmt: skip
+    seen, real_plan, real_predict = [], planner.plan, planner.predict
+
+    def predict(t, state, duration):
+        ahead = real_predict(t, state, duration)
+        n = int(round(duration / planner.dt))
+        times = t + np.arange(n) * planner.dt
+        ctrl = planner.controls(planner.theta[None], planner.problem.spline.basis(times))
+        rolled, _, _ = planner.engine.run(state, ctrl)
+        np.testing.assert_array_equal(ahead[1][1:], rolled[0, -1, 1:])  # the committed policy rolled out
+        assert np.abs(ahead[1][1:] - state[1:]).max() > 0  # the hand moves in between
+        return ahead
+
+    def plan(t, state, rng):
+        seen.append((t, state[0]))
+        return real_plan(t, state, rng)
+
+    monkeypatch.setattr(planner, "predict", predict)
+    monkeypatch.setattr(planner, "plan", plan)
+    try:
+        log = trial.run().arrays()
+    finally:
+        planner.close()
+    np.testing.assert_allclose([t for t, _ in seen], [0.07, 0.14, 0.21, 0.28])  # planned 70 ms ahead
+    np.testing.assert_allclose([s for _, s in seen], [0.07, 0.14, 0.21, 0.28])  # from states then
+    np.testing.assert_allclose(log["time"], [0.0, 0.07, 0.14, 0.21])  # the loop's clock as before
+    runs = []
+    for args in ({}, {"compensate_latency": True}):  # no latency: nothing to compensate
+        trial, planner = _trial(scene, ref, replan_period=0.05, **args)
+        try:
+            runs.append(trial.run().arrays())
+        finally:
+            planner.close()
+    for key in runs[0]:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(runs[0][key], runs[1][key], err_msg=key)
+
+
+def test_a_prediction_shorter_than_a_planning_step_or_diverged_is_the_state_measured():
+    from tests.helpers import PointMassProblem
+
+    problem = PointMassProblem()
+    planner = PredictiveSampling(num_samples=4, horizon=1.0, compensate_latency=True)
+    problem.bind(planner)
+    dt = planner.dt
+    assert planner.predict(0.0, problem.state, 0.4 * dt) == (0.0, problem.state)
+    t, ahead = planner.predict(0.0, problem.state, 5 * dt)
+    assert t == pytest.approx(5 * dt) and ahead[0] == pytest.approx(5 * dt)
+    bad = problem.state.copy()
+    bad[1:3] = np.nan  # a state the model cannot step from: the rollout diverges
+    assert planner.predict(0.0, bad, 5 * dt)[0] == 0.0
+    problem.engine.close()

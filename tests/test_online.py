@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from contactmpc.control.cost import TrackingCost
-from contactmpc.control.planners import PlanInfo, Replay
+from contactmpc.control.planners import PlanInfo, PredictiveSampling, Replay
 from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.online import OnlineLoop
 from contactmpc.reference import Reference
@@ -131,6 +131,41 @@ def test_a_slow_plan_is_swapped_in_whole_and_the_plant_keeps_the_old_one(apple_r
     summary = loop.summary()
     assert summary["plan_latency_median"] > 0.005
     assert summary["plans_applied"] == len(swaps) <= len(plans)
+
+
+class _SlowSampling(PredictiveSampling):
+    """Predictive sampling that takes at least 60 ms of wall time a plan."""
+
+    def plan(self, t, state, rng) -> PlanInfo:
+        time.sleep(0.06)
+        return super().plan(t, state, rng)
+
+
+@pytest.mark.parametrize("compensate", [False, True])
+def test_online_compensation_plans_from_the_state_predicted_a_plans_compute_ahead(
+    apple_reference, compensate
+):
+    """planner.compensate_latency online: every plan after the first starts (its window, its state) the
+    recent plans' median compute time, in control seconds, after the state it was given; off: at it."""
+    scene = build_scene(("task=apple",))
+    reference = Reference.load(apple_reference)
+    planner = _SlowSampling(num_samples=4, horizon=0.2, nthread=1, compensate_latency=compensate)
+    trial = Trial(
+        scene, reference, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.3, progress=False
+    )
+    loop = OnlineLoop(trial, slowdown=2.0)  # a plan (>= 60 ms wall) is >= 30 ms of control
+    try:
+        loop.run()
+    finally:
+        planner.close()
+    ahead = np.array([p.info.time - p.state_time for p in loop.plans])
+    assert len(ahead) >= 3 and ahead[0] == 0.0  # the first plan: nothing measured yet
+    if not compensate:
+        np.testing.assert_array_equal(ahead, 0.0)
+        return
+    steps = ahead[1:] / planner.dt  # whole planning steps, at least the 30 ms a plan takes
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
+    assert (ahead[1:] >= 0.03 - 1e-9).all() and (ahead[1:] < 0.3).all()
 
 
 class _InterruptingViewer:

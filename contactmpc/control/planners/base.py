@@ -53,7 +53,6 @@ class PlanInfo:
     iterations: int = 1
 
 
-
 class Scored(NamedTuple):
     """One planning iteration's scored candidates, what :meth:`Planner.commit` chooses from.
 
@@ -72,6 +71,7 @@ class Scored(NamedTuple):
     candidates: np.ndarray
     total: np.ndarray
     terms: dict
+
 
 class Planner:
     """Base class of the sampling planners.
