@@ -50,6 +50,7 @@ LABELS = (
     "wrist",
     "shaping",
     "release",
+    "compensation",
     "preset",
     "experiment",
     "perturbation",

@@ -80,6 +80,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "wrist": None,
     "shaping": None,
     "release": None,
+    "compensation": None,
     "hand": None,
     "cost": None,
     "sampler": None,

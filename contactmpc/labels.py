@@ -1,13 +1,15 @@
 """Method labels and config keys across versions: one map that resuming and the analysis both read.
 
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
-``robust``; or a named combination such as ``wrist_clearance``) with three independent groups on top:
-``wrist`` (``fixed | sampled | acquire``), ``shaping`` (``none | surface | clearance``) and ``release``
-(``none | reset | open | scheduled | flat | backoff``). Records made before the groups existed name the
-combination by one variant label (``variant: release_flat``); records made before the release schedule
-was one object store its options as flat sampler keys (``sampler.release_pause``).
+``robust``; or a named combination such as ``wrist_clearance``) with four independent groups on top:
+``wrist`` (``fixed | sampled | acquire``), ``shaping`` (``none | surface | clearance``), ``release``
+(``none | reset | open | scheduled | flat | backoff``) and ``compensation`` (``none | predict``). Records
+made before the groups existed name the combination by one variant label (``variant: release_flat``);
+records made before the release schedule was one object store its options as flat sampler keys
+(``sampler.release_pause``); records made before a group existed read as its default.
 
-- :func:`method_labels` reads a record's labels, old or new, as ``{variant, wrist, shaping, release}``;
+- :func:`method_labels` reads a record's labels, old or new, as ``{variant, wrist, shaping, release,
+  compensation}``;
 - :func:`method_name` names the method of those labels, the same name for an old record and a new
   one of the same combination (the old variant's name where it had one: ``wrist_acquire``), by which
   the analysis groups trials;
@@ -23,7 +25,7 @@ from typing import Any
 
 from contactmpc.control.release import ReleaseSchedule
 
-GROUPS: dict[str, str] = {"wrist": "fixed", "shaping": "none", "release": "none"}
+GROUPS: dict[str, str] = {"wrist": "fixed", "shaping": "none", "release": "none", "compensation": "none"}
 """The method's groups on top of the variant, each with its default member (the paper's method)."""
 
 NAMED_VARIANTS: dict[str, str] = {"wrist": "full", "wrist_clearance": "full", "grasp_release": "full"}
@@ -53,9 +55,17 @@ NAMED_METHODS: dict[str, dict[str, str]] = {
         "shaping": "clearance",
         "release": "flat",
     },
+    "grasp_release_ahead": {  # variant=grasp_release compensation=predict: no file of its own
+        "variant": "grasp_release",
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "flat",
+        "compensation": "predict",
+    },
 }
-"""Variants of today that name a combination of groups (``conf/variant/<name>.yaml``'s defaults), read
-as :data:`OLD_VARIANTS` are: the method's name for those groups."""
+"""The project's named methods: a variant of today that names a combination of groups
+(``conf/variant/<name>.yaml``'s defaults), or a name for a variant with more groups on top
+(``grasp_release_ahead``), read as :data:`OLD_VARIANTS` are: the method's name for those groups."""
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}
 

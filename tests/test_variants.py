@@ -284,3 +284,19 @@ def test_a_paper_task_chooses_the_project_s_method_and_the_command_line_wins(tas
 def test_a_synthesised_task_keeps_the_lite_preset_and_no_variant():
     choices = compose_config(["task=apple"], return_hydra_config=True).hydra.runtime.choices
     assert (choices.variant, choices.preset, choices.shaping) == (None, "lite", "none")
+
+
+def test_compensation_is_a_group_and_names_the_method_with_it():
+    """compensation=predict sets planner.compensate_latency (off by default: none composes the config of
+    before); the record labels it, and grasp_release with it is the named method grasp_release_ahead."""
+    off = compose_config(["task=apple"])
+    assert off.planner.compensate_latency is False
+    assert compose_config(["task=apple", "compensation=none"]) == off
+    cfg = compose_config(
+        ["task=apple", "variant=grasp_release", "compensation=predict"], return_hydra_config=True
+    )
+    assert cfg.planner.compensate_latency is True and cfg.hydra.runtime.choices.compensation == "predict"
+    found = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS} | {"variant": "grasp_release"}
+    assert labels.method_name(found) == "grasp_release_ahead"
+    assert labels.method_name({**found, "compensation": "none"}) == "grasp_release"
+    assert labels.method_labels({"variant": "grasp_release_ahead"}) == found
