@@ -28,7 +28,12 @@ from contactmpc.control.release import ReleaseSchedule
 GROUPS: dict[str, str] = {"wrist": "fixed", "shaping": "none", "release": "none", "compensation": "none"}
 """The method's groups on top of the variant, each with its default member (the paper's method)."""
 
-NAMED_VARIANTS: dict[str, str] = {"wrist": "full", "wrist_clearance": "full", "grasp_release": "full"}
+NAMED_VARIANTS: dict[str, str] = {
+    "wrist": "full",
+    "wrist_clearance": "full",
+    "grasp_release": "full",
+    "grasp_release_ahead": "full",
+}
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
 
@@ -55,17 +60,17 @@ NAMED_METHODS: dict[str, dict[str, str]] = {
         "shaping": "clearance",
         "release": "flat",
     },
-    "grasp_release_ahead": {  # variant=grasp_release compensation=predict: no file of its own
-        "variant": "grasp_release",
+    "grasp_release_ahead": {
+        "variant": "grasp_release_ahead",
         "wrist": "acquire",
         "shaping": "clearance",
         "release": "flat",
         "compensation": "predict",
     },
 }
-"""The project's named methods: a variant of today that names a combination of groups
-(``conf/variant/<name>.yaml``'s defaults), or a name for a variant with more groups on top
-(``grasp_release_ahead``), read as :data:`OLD_VARIANTS` are: the method's name for those groups."""
+"""Variants of today that name a combination of groups (``conf/variant/<name>.yaml``'s defaults), read
+as :data:`OLD_VARIANTS` are: the method's name for those groups (``variant=grasp_release
+compensation=predict`` is ``grasp_release_ahead``)."""
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}
 
