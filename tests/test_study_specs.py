@@ -34,19 +34,28 @@ def test_the_glance_rows_name_a_configuration_and_its_counts() -> None:
 
 
 def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_target() -> None:
-    """studies/method: the method's groups come from ``conf/variant/grasp_release.yaml``, the plan from
-    ``experiment=method``; the issue's target (>= 9/10 completed, >= 8/10 clean) is met, missed or still
-    open by the seeds left."""
+    """studies/method: the method is the paper tasks' default variant, its groups from its
+    ``conf/variant`` file, the plan from ``experiment=method``; the issue's target (>= 9/10 completed,
+    >= 8/10 clean) is met, missed or still open by the seeds left."""
     spec = Study("method").spec
-    assert {g: m for g, m, _ in spec.groups()} == {
+    assert spec.METHOD == spec.default_method() in spec.ORDER
+    assert set(spec.task_defaults("variant").values()) == {spec.METHOD}
+    assert {g: m for g, m, _ in spec.groups("grasp_release")} == {
         "wrist": "acquire",
         "shaping": "clearance",
         "release": "flat",
     }
+    assert {g: m for g, m, _ in spec.groups("grasp_release_ahead")} == {
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "flat",
+        "compensation": "predict",
+    }
     assert all(text for _, _, text in spec.groups())
     tasks, seeds = spec.plan()
     assert tasks == ["doorknob", "apple", "bottle", "stapler"] and seeds == list(range(10))
-    assert spec.variants() == ["grasp_release", "full"]
+    assert spec.variants() == ["grasp_release_ahead", "grasp_release", "full"] == list(spec.ORDER)
+    assert spec.others() == [v for v in spec.ORDER if v != spec.METHOD] and "full" in spec.others()
     assert spec.target(9, 8, 10) == "met" and spec.target(10, 7, 10) == "missed"
     assert spec.target(9, 8, 9).startswith("met (already") and spec.target(2, 1, 4).startswith(
         "missed (already"

@@ -1,5 +1,6 @@
-"""The project's method for the paper's four tasks (issue 33): ``variant=grasp_release`` at the calibrated
-latency, ten seeds a task, beside the paper's full method on the same seeds at the same point."""
+"""The project's method for the paper's four tasks (issue 33): the method the paper tasks select by default
+(``variant=grasp_release_ahead`` or ``grasp_release``) at the calibrated latency, ten seeds a task, beside
+the project's other method and the paper's full method on the same seeds at the same point."""
 
 from __future__ import annotations
 
@@ -21,26 +22,26 @@ from analysis.summarize import Fmt, Stat, markdown, pipe_table, summarize
 from analysis.timeline import timeline
 
 QUESTION = (
-    "Does one named method (variant=grasp_release) complete all four of the paper's tasks, at least 9 of 10 "
-    "seeds each and at least 8 of 10 finished cleanly, at the paper point's calibrated latency, and how "
-    "does it compare with the paper's full method on the same seeds?"
+    "Does one named method (the paper tasks' default: grasp_release_ahead, or before it grasp_release) "
+    "complete all four of the paper's tasks, at least 9 of 10 seeds each and at least 8 of 10 finished "
+    "cleanly, at the paper point's calibrated latency, and how does it compare with the paper's full "
+    "method on the same seeds?"
 )
-TITLE = "The method: grasp_release on the paper's four tasks"
+TITLE = "The method: grasp_release(_ahead) on the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
-    "python launch.py experiment=method variant=grasp_release hydra.sweep.dir=studies/method/records",
-    "python launch.py experiment=method variant=full hydra.sweep.dir=studies/method/records",
+    f"python launch.py experiment=method variant={v} hydra.sweep.dir=studies/method/records"
+    for v in ("grasp_release_ahead", "grasp_release", "full")
 ]
 
 HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
-METHOD = "grasp_release"
+#: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
+ORDER = ("grasp_release_ahead", "grasp_release", "full")
 BASELINE = "full"
 #: The issue's target per task: at least this many of TARGET_SEEDS seeds completed, and finished cleanly.
 TARGET_SEEDS, TARGET_COMPLETED, TARGET_CLEAN = 10, 9, 8
 ALPHA = 0.05
-#: The order of the methods in the tables.
-ORDER = (METHOD, BASELINE)
 
 
 # ------------------------------------------------------------------------------------------- the plan
@@ -59,10 +60,10 @@ def plan() -> tuple[list[str], list[int]]:
     return ordered(tasks, TASK_ORDER), sorted(int(s) for s in params.get("seed", []))
 
 
-def groups(variant: str = METHOD) -> list[tuple[str, str, str]]:
-    """``(group, member, what it does)`` for each group ``conf/variant/<variant>.yaml`` selects; what it does
-    is the member's own comment (``conf/<group>/<member>.yaml``)."""
-    conf = OmegaConf.load(CONF / "variant" / f"{variant}.yaml")
+def groups(variant: str | None = None) -> list[tuple[str, str, str]]:
+    """``(group, member, what it does)`` for each group ``conf/variant/<variant>.yaml`` (default: the
+    study's method's) selects; what it does is the member's own comment (``conf/<group>/<member>.yaml``)."""
+    conf = OmegaConf.load(CONF / "variant" / f"{variant or METHOD}.yaml")
     out = []
     for entry in conf.get("defaults") or []:
         if not isinstance(entry, dict) and not OmegaConf.is_dict(entry):
@@ -95,6 +96,17 @@ def task_defaults(group: str) -> dict[str, str]:
                     if str(key).split("@")[0].removeprefix("override ").strip("/ ") == group:
                         out[path.stem.removeprefix("paper_")] = str(member)
     return {t: out[t] for t in ordered(out, TASK_ORDER)}
+
+
+def default_method() -> str:
+    """The method the paper tasks select by default (``conf/task/paper_*.yaml``'s variant; the first of
+    :data:`ORDER` where they select none of it)."""
+    chosen = set(task_defaults("variant").values())
+    return next((v for v in ORDER if v in chosen), ORDER[0])
+
+
+#: The method the study is about: the paper tasks' default.
+METHOD = default_method()
 
 
 def planned_latency() -> float | None:
@@ -315,55 +327,62 @@ def smallest_difference(k: int, n: int, alpha: float = ALPHA) -> int | None:
     return None
 
 
+def others() -> list[str]:
+    """The methods :data:`METHOD` is set beside: the rest of :data:`ORDER`, the paper's last."""
+    return [v for v in ORDER if v != METHOD]
+
+
 def paired(df: pd.DataFrame) -> tuple[str, str]:
-    """The side-by-side table on the seeds both methods have, and its findings."""
+    """The side-by-side table of :data:`METHOD` against each other method on the seeds both have, and its
+    findings."""
     ok = counted(df)
     tasks, _ = plan()
     rows, notes = [], []
-    for task in tasks:
-        a, b = (cell(ok, task, v) if len(ok) else ok for v in (METHOD, BASELINE))
-        if not len(a) or not len(b):
-            continue
-        common = sorted(set(a["seed"]) & set(b["seed"]))
-        if not common:
-            continue
-        a, b = (x[x["seed"].isin(common)].set_index("seed") for x in (a, b))
-        n = len(common)
-        for measure, col in (("completed", "completed"), ("finished cleanly", "finished_cleanly")):
-            k1, k2 = int(a[col].sum()), int(b[col].sum())
-            p, p_min = completion_test(k1, n, k2, n)
-            d, lo, hi = newcombe(k1, n, k2, n)
-            only_a = [s for s in common if a.at[s, col] and not b.at[s, col]]
-            only_b = [s for s in common if b.at[s, col] and not a.at[s, col]]
-            need = smallest_difference(k2, n)
-            power = (
-                "no count could reach p < 0.05"
-                if need is None
-                else f"only a difference of ≥ {need} of {n} seeds could give p < 0.05"
-            )
-            verdict = (
-                f"p < {ALPHA:g}" if p < ALPHA else f"not significant; {power}: little power at these counts"
-            )
-            rows.append(
-                f"| {task} | {measure} | {seeds(common)} | {k1}/{n} / {k2}/{n} | {100 * d:+.0f} "
-                f"[{100 * lo:+.0f}, {100 * hi:+.0f}] | {p:.3g} | {p_min:.3g} | {seeds(only_a)} "
-                f"| {seeds(only_b)} | {verdict} |"
-            )
-            if measure == "completed":
+    for other in others():
+        for task in tasks:
+            a, b = (cell(ok, task, v) if len(ok) else ok for v in (METHOD, other))
+            if not len(a) or not len(b):
+                continue
+            common = sorted(set(a["seed"]) & set(b["seed"]))
+            if not common:
+                continue
+            a, b = (x[x["seed"].isin(common)].set_index("seed") for x in (a, b))
+            n = len(common)
+            for measure, col in (("completed", "completed"), ("finished cleanly", "finished_cleanly")):
+                k1, k2 = int(a[col].sum()), int(b[col].sum())
+                p, p_min = completion_test(k1, n, k2, n)
+                d, lo, hi = newcombe(k1, n, k2, n)
+                only_a = [s for s in common if a.at[s, col] and not b.at[s, col]]
+                only_b = [s for s in common if b.at[s, col] and not a.at[s, col]]
+                need = smallest_difference(k2, n)
+                power = (
+                    "no count could reach p < 0.05"
+                    if need is None
+                    else f"only a difference of ≥ {need} of {n} seeds could give p < 0.05"
+                )
+                verdict = (
+                    f"p < {ALPHA:g}"
+                    if p < ALPHA
+                    else f"not significant; {power}: little power at these counts"
+                )
+                rows.append(
+                    f"| {other} | {task} | {measure} | {seeds(common)} | {k1}/{n} / {k2}/{n} "
+                    f"| {100 * d:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}] | {p:.3g} | {p_min:.3g} "
+                    f"| {seeds(only_a)} | {seeds(only_b)} | {verdict} |"
+                )
                 notes.append(
-                    f"- **{task}** ({n} seed{'s' if n != 1 else ''} in both): `{METHOD}` completes "
-                    f"{of(k1, n)}, `{BASELINE}` {of(k2, n)}; {100 * d:+.0f} points "
-                    f"[{100 * lo:+.0f}, {100 * hi:+.0f}], "
-                    f"Barnard's p = {p:.3g} ({verdict})."
+                    f"- **{task}**, {measure} ({n} seed{'s' if n != 1 else ''} in both): `{METHOD}` "
+                    f"{of(k1, n)}, `{other}` {of(k2, n)}; {100 * d:+.0f} points "
+                    f"[{100 * lo:+.0f}, {100 * hi:+.0f}], Barnard's p = {p:.3g} ({verdict})."
                 )
     if not rows:
-        return "", "Not measured yet: no task has trials of both methods on a common seed.\n"
+        return "", "Not measured yet: no task has trials of two methods on a common seed.\n"
     cols = (
-        "task", "measure", "seeds in both", f"{METHOD} / {BASELINE}",
+        "against", "task", "measure", "seeds in both", f"{METHOD} / other",
         "difference, points [95 % CI]", "Barnard p", "smallest attainable p",
-        f"seeds only {METHOD}", f"seeds only {BASELINE}", "reading",
+        f"seeds only {METHOD}", "seeds only the other", "reading",
     )  # fmt: skip
-    return pipe_table(cols, "lllrrrrlll", rows), "\n".join(notes) + "\n"
+    return pipe_table(cols, "llllrrrrlll", rows), "\n".join(notes) + "\n"
 
 
 # -------------------------------------------------------------------------------------------- failures
@@ -482,9 +501,9 @@ def report(study) -> str:
         f"≥ {TARGET_COMPLETED} of {TARGET_SEEDS} seeds completed and ≥ {TARGET_CLEAN} of {TARGET_SEEDS} "
         "finished cleanly; with fewer seeds kept, whether it can still be met.\n\n"
         + table(df)
-        + f"\n## `{METHOD}` against `{BASELINE}` on the same seeds\n\n"
-        "Per task, on the seeds both methods have: the counts, the difference in rate "
-        f"(`{METHOD}` − `{BASELINE}`, points) with Newcombe's 95 % interval, Barnard's exact two-sided p "
+        + f"\n## `{METHOD}` against {codes(others())} on the same seeds\n\n"
+        "Per other method and task, on the seeds both methods have: the counts, the difference in rate "
+        f"(`{METHOD}` − the other, points) with Newcombe's 95 % interval, Barnard's exact two-sided p "
         "(`analysis.inference`; the seeds are paired, the test treats the two sides as independent samples) "
         "and the smallest p any outcome could give at these counts; the seeds only one method completes "
         "(or finishes cleanly).\n\n"
@@ -508,6 +527,7 @@ def report(study) -> str:
 def glance(study) -> list[dict]:
     """`variant=grasp_release` per paper task, where it has trials."""
     ok = counted(frame(study))
+    default_tasks = {t for t, v in task_defaults("variant").items() if v == METHOD}
     rows = []
     for task in plan()[0]:
         g = cell(ok, task, METHOD) if len(ok) else ok
@@ -515,7 +535,8 @@ def glance(study) -> list[dict]:
             rows.append(
                 glance_row(
                     f"paper {task}",
-                    f"`preset=paper_32samples_calibrated variant={METHOD}` (the default)",
+                    f"`preset=paper_32samples_calibrated variant={METHOD}`"
+                    + (" (the default)" if task in default_tasks else ""),
                     g.assign(compute=g["cpu_seconds"]),
                 )
             )
