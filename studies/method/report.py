@@ -4,6 +4,7 @@ the project's other method and the paper's full method on the same seeds at the 
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from pathlib import Path
@@ -15,6 +16,7 @@ from omegaconf import OmegaConf
 from analysis import release
 from analysis.aggregate import COUNTED_STATUSES, TASK_ORDER, ordered
 from analysis.inference import completion_test, newcombe
+from analysis.online import by_slowdown
 from analysis.operating_point import points, readings
 from analysis.prose import glance_row, median, of, seeds
 from analysis.study import REPO, sweep_params
@@ -446,6 +448,57 @@ def failures(study, df: pd.DataFrame) -> str:
     return "\n".join(out).rstrip("\n") + "\n"
 
 
+# ----------------------------------------------------------------------------------------------- online
+
+
+def _ms(r: dict, key: str) -> str:
+    return Fmt.num(1e3 * r[key], 0) if isinstance(r.get(key), float) else "—"
+
+
+def _online_row(r: dict) -> str:
+    yes = {True: "yes", False: "no"}
+    slowdown, factor = r.get("slowdown", math.nan), r.get("real_time_factor", math.nan)
+    return (
+        f"| {r.get('task', '').removeprefix('paper_')} | {r.get('variant')} | {r.get('seed')} "
+        f"| {Fmt.num(slowdown, 0)} | {Fmt.num(factor, 3)} "
+        f"| {_ms(r, 'replan_interval_median')} | {_ms(r, 'plan_latency_median')} "
+        f"| {yes[bool(r.get('completed'))]} | {yes[bool(r.get('finished_cleanly'))]} "
+        f"| {Fmt.num(r.get('ttf', math.nan), 2)} |"
+    )
+
+
+def online(study) -> str:
+    """``job=online`` runs (``online/<run>/trial.json``, made by ``run_online.sh``): one row a run, and per
+    task and method the smallest slowdown at which every run completed on 2 threads."""
+    paths = sorted((study.dir / "online").glob("*/trial.json"))
+    head = (
+        "`job=online` runs the plant in wall-clock time and the planner in a second thread on 2 planning "
+        "threads here (`planner.nthread=2`), at each paper task's default preset (the latency is the real "
+        "one, not the preset's); `job.slowdown` 2 and 3 stand in for real time on 4 and 6 threads of this "
+        "CPU. Per task and method, slowdown 1, then 2, then 3, until both runs (seeds 0 and 1) complete "
+        "(`bash studies/method/run_online.sh`, other jobs stopped while it runs).\n\n"
+    )
+    if not paths:
+        return head + "No online run is kept yet.\n"
+    records = [json.loads(p.read_text()) for p in paths]
+    rows = [_online_row(r) for r in records]
+    cols = (
+        "task", "method", "seed", "slowdown", "real-time factor", "replan interval, median (ms)",
+        "plan latency, median (ms)", "completed", "finished cleanly", "TTF",
+    )  # fmt: skip
+    name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {r.get('variant')}"  # noqa: E731
+    table, prose, _ = by_slowdown(records, name)
+    return (
+        head
+        + pipe_table(cols, "lllrrrrllr", rows)
+        + "\nHow many threads real time needs:\n\n"
+        + markdown(pd.DataFrame(table))
+        + "\n- "
+        + ";\n- ".join(prose)
+        + ".\n"
+    )
+
+
 # ---------------------------------------------------------------------------------------------- report
 
 
@@ -509,6 +562,8 @@ def report(study) -> str:
         "(or finishes cleanly).\n\n"
         + (side + "\n" if side else "")
         + notes
+        + "\n## Online, in wall-clock time\n\n"
+        + online(study)
         + "\n## Per seed\n\n"
         + (
             "The final object error (mm, or x 1e-3 on the doorknob) and how each trial ended (clean = "

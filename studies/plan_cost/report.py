@@ -12,6 +12,8 @@ import pandas as pd
 from omegaconf import OmegaConf
 
 from analysis import operating_point as op
+from analysis.online import by_slowdown
+from analysis.online import slowdown as online_slowdown
 from analysis.prose import of, seeds
 from analysis.summarize import Fmt
 from analysis.summarize import markdown as _markdown
@@ -527,7 +529,7 @@ def online_section(folder: Path) -> list[str]:
     per_cell: dict[tuple[str, float], int] = {}
     records = [json.loads(path.read_text()) for path in runs]
     for path, r in zip(runs, records, strict=True):
-        slowdown = _slowdown(r)
+        slowdown = online_slowdown(r)
         slowdowns.add(slowdown)
         cell = (f"{r.get('task')} {r.get('variant')}", slowdown)
         per_cell[cell] = per_cell.get(cell, 0) + 1
@@ -558,53 +560,12 @@ def online_section(folder: Path) -> list[str]:
     ]
 
 
-def _slowdown(record: dict) -> float | None:
-    """An online run's ``job.slowdown``, from its record's config."""
-    return ((record.get("config") or {}).get("job") or {}).get("slowdown")
-
-
 def threads_needed(records: list[dict]) -> list[str]:
     """Per task and variant: the runs completed at each slowdown, the median replan interval, and the
     smallest slowdown at which every run completed (real time on 2 x that many threads of this CPU)."""
-    rows = []
-    for r in records:
-        rows.append(
-            {
-                "run": f"{r.get('task')} {r.get('variant')}",
-                "slowdown": _slowdown(r),
-                "completed": bool(r.get("completed")),
-                "interval": r.get("replan_interval_median"),
-            }
-        )
-    df = pd.DataFrame(rows).dropna(subset=["slowdown"])
+    table, prose, df = by_slowdown(records)
     if not len(df):
         return []
-    slowdowns = sorted(df["slowdown"].unique())
-    table = {"task and variant": sorted(df["run"].unique())}
-    for x in slowdowns:
-        table[f"slowdown {x:g} ({2 * x:g} threads): completed, replan ms"] = [
-            (
-                f"{of(int(g['completed'].sum()), len(g))}, {1e3 * g['interval'].median():.0f}"
-                if len(g := df[(df["run"] == run) & (df["slowdown"] == x)])
-                else "—"
-            )
-            for run in table["task and variant"]
-        ]
-    prose = []
-    for run in table["task and variant"]:
-        g = df[df["run"] == run]
-        every = [x for x in slowdowns if len(h := g[g["slowdown"] == x]) and h["completed"].all()]
-        if every:
-            x = every[0]
-            prose.append(
-                f"{run}: every run completes from slowdown {x:g} (real time on {2 * x:g} threads of this CPU)"
-                if x > 1
-                else f"{run}: every run completes in real time on 2 threads"
-            )
-        else:
-            prose.append(
-                f"{run}: no slowdown tried ({', '.join(f'{x:g}' for x in slowdowns)}) completes every run"
-            )
     return [
         "How many threads real time needs (a slowdown s on 2 threads stands in for 2s threads; a run "
         "that completes at one slowdown may still fail at a larger one, as a trial's outcome varies with its "
