@@ -15,6 +15,7 @@ import yaml
 from analysis.prose import median, of, ratio, seeds, span
 from analysis.study import REPO
 from analysis.summarize import Fmt, Stat, markdown, summarize
+from contactmpc.labels import method_name
 
 TITLE = "The cheap screen of the method levers (issue 33)"
 EXPERIMENTS = ["bash studies/method_screen/run_screen.sh"]
@@ -49,6 +50,7 @@ SOURCES = {
     "sampler.noise_ramp": "judo (`optimizers/overrides.py`)",
     "planner.num_samples": "the paper point's samples (the stapler study)",
     "variant": "this project (the stapler study)",
+    "compensation": "this project: plan from the state predicted for when the plan takes effect",
 }
 
 
@@ -63,15 +65,25 @@ def _value(v: object, default: object) -> object:
     return v
 
 
+def _without_compensation(name: str) -> str:
+    """A method's name (``full+wrist=acquire+shaping=clearance+compensation=predict``, or a variant's)
+    with its compensation group at the default (``wrist_clearance``)."""
+    base, *groups = name.split("+")
+    return method_name({"variant": base, **dict(g.split("=", 1) for g in groups), "compensation": "none"})
+
+
 def lever(row: dict) -> str:
-    """A trial's lever: its variant, then each lever option that differs from its default."""
-    parts = [str(row.get("variant"))]
+    """A trial's lever: its variant, then each lever option that differs from its default, then
+    ``predict`` where it plans from the predicted state (``compensation=predict``)."""
+    variant = str(row.get("variant"))
+    predict = row.get("compensation") == "predict" or "+compensation=predict" in variant
+    parts = [_without_compensation(variant) if predict else variant]
     for key, default, short in LEVER_KEYS:
         v = _value(row.get(key), default)
         if v != _value(default, default):
             text = f"{v:g}" if isinstance(v, float) else str(v)
             parts.append(f"{short}{text}")
-    return " ".join(parts)
+    return " ".join(parts + ["predict"] * predict)
 
 
 def script() -> dict:
@@ -79,8 +91,9 @@ def script() -> dict:
     text = SCRIPT.read_text()
     common = re.search(r"COMMON=\((.*?)\)", text, re.S)[1]
     seeds_text = re.search(r"SEEDS:-([0-9 ]+)\}", text)[1]
-    levers: list[list[str]] = []  # every LEVERS set (SET=full, SET=clearance), the paper's method's first
-    for block in sorted(re.findall(r"LEVERS=\((.*?)\n\)", text, re.S), key=lambda b: "variant=full" not in b):
+    levers: list[list[str]] = []  # every LEVERS set (SET=full, clearance, compensation), full's first
+    blocks = re.findall(r"LEVERS=\((.*?)\n\)", text, re.S)
+    for block in sorted(blocks, key=lambda b: b.strip().splitlines()[0].strip().strip('"') != "variant=full"):
         for line in block.strip().splitlines():
             if (overrides := shlex.split(line.strip().strip('"'))) not in levers:
                 levers.append(overrides)
@@ -359,7 +372,8 @@ def report(study) -> str:
         f"{study.provenance(pd.concat([screen, full]))}\n\n"
         "## The levers screened\n\n"
         "Each on top of `variant=full` (`SET=full`, the default) or of `variant=wrist_clearance` "
-        "(`SET=clearance`, on the stapler only), whose first word it names.\n\n"
+        "(`SET=clearance`, on the stapler only), whose first word it names; `SET=compensation` runs both "
+        "bases planning from the predicted state (`predict`, on both tasks).\n\n"
         + levers_table(spec)
         + f"\n`planner.update=elite_softmax`{elite_options(screen)}. {rollouts}the fixed "
         f"{latency} ms latency of `preset=paper_32samples` (median of the screen's records) is the paper "

@@ -24,6 +24,13 @@ LEVERS=(
   "variant=wrist_clearance planner.num_samples=128"
 )
 COMMON=("${COMMON[@]/task=paper_stapler,paper_bottle/task=${TASKS:-paper_stapler}}")
+# SET=compensation: the paper's method and wrist_clearance, each planning from the state predicted for when
+# its plan takes effect (compensation=predict), on both tasks
+elif [[ ${SET:-full} == compensation ]]; then
+LEVERS=(
+  "variant=full compensation=predict"
+  "variant=wrist_clearance compensation=predict"
+)
 else
 LEVERS=(
   "variant=full"
