@@ -11,7 +11,7 @@ import pytest
 
 from contactmpc.control.cost import TrackingCost
 from contactmpc.control.latency import ComputeLatency
-from contactmpc.control.planners import PredictiveSampling
+from contactmpc.control.planners import PredictiveSampling, Replay
 from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.trial import Trial, check_timing
 from contactmpc.validate import ConfigError
@@ -213,3 +213,7 @@ def test_a_prediction_shorter_than_a_planning_step_or_diverged_is_the_state_meas
     bad[1:3] = np.nan  # a state the model cannot step from: the rollout diverges
     assert planner.predict(0.0, bad, 5 * dt)[0] == 0.0
     problem.engine.close()
+    replay = Replay(horizon=1.0, compensate_latency=True)  # no rollouts: nothing to predict with
+    problem.bind(replay)
+    replay.engine = None
+    assert replay.predict(0.0, problem.state, 5 * dt) == (0.0, problem.state)

@@ -241,10 +241,11 @@ class Planner:
         """Where the committed policy takes the planning model from ``state`` at control time ``t`` in
         ``duration`` seconds (rounded to whole planning steps): ``(t', state')``, for a plan that takes
         effect then (:attr:`compensate_latency`). One rollout of ``duration / dt`` steps; where it
-        diverges, or ``duration`` rounds to no step, ``(t, state)`` as given.
+        diverges, ``duration`` rounds to no step, or the planner runs no rollouts (replay), ``(t, state)``
+        as given.
         """
         n = int(round(duration / self.dt))
-        if n < 1:
+        if n < 1 or self.engine is None:
             return t, state
         times = t + np.arange(n) * self.dt
         ctrl = self.controls(self.theta[None], self.problem.spline.basis(times))
