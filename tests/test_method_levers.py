@@ -185,3 +185,38 @@ def test_start_and_end_relative_to_the_first_contact(tmp_path, late_contact_refe
     assert record["simulated_seconds"] == pytest.approx(0.2, abs=0.06)
     with pytest.raises(ConfigError, match="both set"):
         run_job(overrides + ["job.start_time=1", "job.start_before_contact=1"], tmp_path / "both")
+
+
+def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced():
+    """planner.acquire_samples: a plan before ``acquire_until`` after the first expected contact rolls out
+    that many candidates, one after it ``num_samples``; off (None), ``num_samples`` everywhere, the same
+    draws as before; a latency model prices the larger plan."""
+    problem = PointMassProblem(sigma=0.4)
+    planner = PredictiveSampling(num_samples=8, horizon=0.5, acquire_samples=20, acquire_until=0.2)
+    off = PredictiveSampling(num_samples=8, horizon=0.5)
+    problem.bind(planner)
+    problem.bind(off)
+    planner.problem.first_contact = off.problem.first_contact = 0.1
+    sizes = []
+    real = planner.evaluate
+
+    def evaluate(state, t, thetas):
+        sizes.append(len(thetas))
+        return real(state, t, thetas)
+
+    planner.evaluate = evaluate
+    for t in (0.0, 0.29, 0.3, 0.5):
+        planner.plan(t, problem.state, np.random.default_rng(0))
+    assert sizes == [20, 20, 8, 8]
+    assert [planner.samples_at(t) for t in (0.0, 0.3)] == [20, 8] and off.samples_at(0.0) == 8
+    # after the window the plan is the one without the option, bit for bit (same nominal, same draws)
+    off.theta[:] = planner.theta
+    a = planner.plan(0.5, problem.state, np.random.default_rng(3))
+    b = off.plan(0.5, problem.state, np.random.default_rng(3))
+    np.testing.assert_array_equal(planner.theta, off.theta)
+    assert a.best_cost == b.best_cost
+    model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
+    priced = PredictiveSampling(num_samples=8, horizon=0.5, acquire_samples=20, latency_model=model)
+    problem.bind(priced)
+    assert priced.rollouts_per_plan() == 20
+    problem.engine.close()

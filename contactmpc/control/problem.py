@@ -38,6 +38,8 @@ class Problem:
             space with a ``root_window`` or a release ``window``); ``None``: the space's ``noise_std``.
         last_contact: control time (s) of the reference's last expected contact where it lets go
             (``None``: it ends held, or expects none).
+        first_contact: control time (s) of the reference's first expected contact (``None``: it
+            expects none).
         release_theta: (M, d) the nominal the planner's committed control points go back to at the
             last contact (a release schedule with ``reset``: its release nominal, the reference's own
             where it sets no ``open`` / ``pause`` / ``backoff``); ``theta0`` is then the reference's
@@ -55,6 +57,7 @@ class Problem:
     noise_std: np.ndarray | None = None
     last_contact: float | None = None
     release_theta: np.ndarray | None = None
+    first_contact: float | None = None
 
     @classmethod
     def build(
@@ -126,6 +129,7 @@ class Problem:
             noise_std=space.point_noise_std(spline, first_contact, last_contact),
             last_contact=last_contact,
             release_theta=release_theta,
+            first_contact=first_contact,
         )
 
 

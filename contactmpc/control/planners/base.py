@@ -104,6 +104,11 @@ class Planner:
             the committed policy, which the plant follows until then, for the latency), starting the
             plan's window there; False (the paper, MuJoCo MPC): from the measured state, so a plan
             spends its first ``latency`` on controls that are never applied. No effect without latency.
+        acquire_samples: samples a plan draws while contact is approached and acquired, from the start
+            until ``acquire_until`` after the reference's first expected contact (where the stapler's
+            grasp is won or lost: the paper point's 128 samples lift it, 32 rarely); ``None`` (the
+            paper): ``num_samples`` throughout. A latency model prices the larger plan.
+        acquire_until: seconds after the first expected contact that ``acquire_samples`` lasts.
     """
 
     needs_rollouts = True
@@ -123,6 +128,8 @@ class Planner:
         anneal: Annotated[float, Gt(0)] = 1.0,
         early_stop: Annotated[float, Ge(0)] = 0.0,
         compensate_latency: bool = False,
+        acquire_samples: Annotated[int, Ge(1)] | None = None,
+        acquire_until: float = 2.0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -142,6 +149,9 @@ class Planner:
         self.anneal = float(anneal)
         self.early_stop = float(early_stop)
         self.compensate_latency = bool(compensate_latency)
+        self.acquire_samples = None if acquire_samples is None else int(acquire_samples)
+        self.acquire_until = float(acquire_until)
+        self._plan_samples: int | None = None  # the samples of the plan being made (samples_at)
         self._noise_scale: np.ndarray | None = None  # (Mw, 1) factor on the noise being drawn, or None
 
     # --- the two methods a planner implements ------------------------------------------------
@@ -201,7 +211,7 @@ class Planner:
         ensemble's models; 0 for a planner without rollouts."""
         if not self.needs_rollouts:
             return 0
-        per_iteration = self.num_samples + self.extra_rollouts
+        per_iteration = max(self.num_samples, self.acquire_samples or 0) + self.extra_rollouts
         return self.iterations * per_iteration * (len(self._models) if self._models else 1)
 
     def close(self) -> None:
@@ -317,6 +327,21 @@ class Planner:
         start = time.perf_counter()
         if self._release_at is not None and t >= self._release_at - 1e-9:
             self.release()
+        self._plan_samples = self.samples_at(t)
+        try:
+            return self._plan(t, state, rng, start)
+        finally:
+            self._plan_samples = None
+
+    def samples_at(self, t: float) -> int:
+        """The samples a plan at control time ``t`` draws: ``acquire_samples`` until ``acquire_until``
+        after the first expected contact, else ``num_samples``."""
+        first = getattr(self.problem, "first_contact", None)
+        if self.acquire_samples is None or first is None or t >= first + self.acquire_until - 1e-9:
+            return self.num_samples
+        return self.acquire_samples
+
+    def _plan(self, t: float, state: np.ndarray, rng: np.random.Generator, start: float) -> PlanInfo:
         if not self.needs_rollouts:
             window = self.problem.spline.window_indices(t, self.horizon)
             terms = {k: float("nan") for k in self.problem.cost.terms}
@@ -396,7 +421,8 @@ class Planner:
     def gaussian(self, rng: np.random.Generator, nominal: np.ndarray, std: np.ndarray) -> np.ndarray:
         """(S, Mw, d) samples: row 0 the nominal, the rest ``nominal + std * N(0, 1)``, the noise times
         :meth:`noise_scale`'s factor where there is one."""
-        noise = rng.standard_normal((self.num_samples - 1,) + nominal.shape) * std
+        count = self._plan_samples or self.num_samples
+        noise = rng.standard_normal((count - 1,) + nominal.shape) * std
         if self._noise_scale is not None:
             noise *= self._noise_scale
         return np.concatenate([nominal[None], nominal[None] + noise], axis=0)
