@@ -51,6 +51,7 @@ LABELS = (
     "shaping",
     "release",
     "compensation",
+    "effort",
     "preset",
     "experiment",
     "perturbation",

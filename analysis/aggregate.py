@@ -81,6 +81,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "shaping": None,
     "release": None,
     "compensation": None,
+    "effort": None,
     "hand": None,
     "cost": None,
     "sampler": None,

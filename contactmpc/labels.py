@@ -1,15 +1,16 @@
 """Method labels and config keys across versions: one map that resuming and the analysis both read.
 
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
-``robust``; or a named combination such as ``wrist_clearance``) with four independent groups on top:
+``robust``; or a named combination such as ``wrist_clearance``) with five independent groups on top:
 ``wrist`` (``fixed | sampled | acquire``), ``shaping`` (``none | surface | clearance``), ``release``
-(``none | reset | open | scheduled | flat | backoff``) and ``compensation`` (``none | predict``). Records
-made before the groups existed name the combination by one variant label (``variant: release_flat``);
-records made before the release schedule was one object store its options as flat sampler keys
-(``sampler.release_pause``); records made before a group existed read as its default.
+(``none | reset | open | scheduled | flat | backoff``), ``compensation`` (``none | predict``) and
+``effort`` (``uniform | acquire``). Records made before the groups existed name the combination by one
+variant label (``variant: release_flat``); records made before the release schedule was one object
+store its options as flat sampler keys (``sampler.release_pause``); records made before a group existed
+read as its default.
 
 - :func:`method_labels` reads a record's labels, old or new, as ``{variant, wrist, shaping, release,
-  compensation}``;
+  compensation, effort}``;
 - :func:`method_name` names the method of those labels, the same name for an old record and a new
   one of the same combination (the old variant's name where it had one: ``wrist_acquire``), by which
   the analysis groups trials;
@@ -25,7 +26,13 @@ from typing import Any
 
 from contactmpc.control.release import ReleaseSchedule
 
-GROUPS: dict[str, str] = {"wrist": "fixed", "shaping": "none", "release": "none", "compensation": "none"}
+GROUPS: dict[str, str] = {
+    "wrist": "fixed",
+    "shaping": "none",
+    "release": "none",
+    "compensation": "none",
+    "effort": "uniform",
+}
 """The method's groups on top of the variant, each with its default member (the paper's method)."""
 
 NAMED_VARIANTS: dict[str, str] = {
@@ -82,7 +89,7 @@ _NAMES: dict[tuple[str, ...], str] = {
 
 
 def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
-    """A record's method labels as today's ``{variant, wrist, shaping, release}``.
+    """A record's method labels as today's ``{variant, *GROUPS}`` (the groups of :data:`GROUPS`).
 
     A record's group labels are read as they are (a group it lacks, or names as ``None``, at its
     default); a variant label in :data:`OLD_VARIANTS` (an old record's, or a name :func:`method_name`
