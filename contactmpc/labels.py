@@ -115,8 +115,9 @@ def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
 def method_name(labels: Mapping[str, Any]) -> str | None:
     """The name of the method a record ran (see :func:`method_labels`): the variant's when every
     group is at its default, the old variant's of the combination where there was one
-    (``wrist_clearance``, ``release_flat``), else the variant followed by each group off its default,
-    ``+group=member`` (``joint_space+wrist=acquire``). ``None`` without a variant label."""
+    (``wrist_clearance``, ``release_flat``), else the project's named method it adds groups to followed by
+    each of them (``grasp_release_ahead+effort=acquire``), else the variant followed by each group off its
+    default, ``+group=member`` (``joint_space+wrist=acquire``). ``None`` without a variant label."""
     found = method_labels(labels)
     variant = found["variant"]
     if not isinstance(variant, str) or not variant:
@@ -127,6 +128,18 @@ def method_name(labels: Mapping[str, Any]) -> str | None:
         return base
     if (name := _NAMES.get((base, *groups))) is not None:
         return name
+    # a named method with more groups on top: the one naming the most of the record's groups, then the
+    # groups it leaves at their defaults (grasp_release_ahead+effort=acquire)
+    within = [
+        (sum(g in named for g in GROUPS), name)
+        for name, named in NAMED_METHODS.items()
+        if NAMED_VARIANTS.get(named["variant"], named["variant"]) == base
+        and all(found[g] == named[g] for g in GROUPS if g in named)
+    ]
+    if within:
+        name = max(within)[1]
+        rest = [(g, found[g]) for g, d in GROUPS.items() if g not in NAMED_METHODS[name] and found[g] != d]
+        return name + "".join(f"+{g}={m}" for g, m in rest)
     return base + "".join(f"+{g}={m}" for g, m in zip(GROUPS, groups, strict=True) if m != GROUPS[g])
 
 

@@ -301,6 +301,12 @@ def test_compensation_is_a_group_and_names_the_method_with_it():
     found = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS} | {"variant": "grasp_release"}
     assert labels.method_name(found) == "grasp_release_ahead"
     assert labels.method_name({**found, "compensation": "none"}) == "grasp_release"
+    # a named method with a group more: its name, then the group (and the name reads back the same)
+    assert labels.method_name({**found, "effort": "acquire"}) == "grasp_release_ahead+effort=acquire"
+    assert labels.method_name({"variant": "grasp_release_ahead+effort=acquire"}) == (
+        "grasp_release_ahead+effort=acquire"
+    )
+    assert labels.method_name({"variant": "full", "effort": "acquire"}) == "full+effort=acquire"
     assert labels.method_labels({"variant": "grasp_release_ahead"}) == found | {
         "variant": "grasp_release_ahead"
     }

@@ -22,6 +22,7 @@ from analysis.prose import glance_row, median, of, seeds
 from analysis.study import REPO, sweep_params
 from analysis.summarize import Fmt, Stat, markdown, pipe_table, summarize
 from analysis.timeline import timeline
+from contactmpc.labels import GROUPS, method_name
 
 QUESTION = (
     "Does one named method (the paper tasks' default: grasp_release_ahead, or before it grasp_release) "
@@ -32,14 +33,18 @@ QUESTION = (
 TITLE = "The method: grasp_release(_ahead) on the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
-    f"python launch.py experiment=method variant={v} hydra.sweep.dir=studies/method/records"
-    for v in ("grasp_release_ahead", "grasp_release", "full")
+    "python launch.py experiment=method variant=grasp_release_ahead effort=acquire "
+    "hydra.sweep.dir=studies/method/records",
+    *(
+        f"python launch.py experiment=method variant={v} hydra.sweep.dir=studies/method/records"
+        for v in ("grasp_release_ahead", "grasp_release", "full")
+    ),
 ]
 
 HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
-ORDER = ("grasp_release_ahead", "grasp_release", "full")
+ORDER = ("grasp_release_ahead+effort=acquire", "grasp_release_ahead", "grasp_release", "full")
 BASELINE = "full"
 #: The issue's target per task: at least this many of TARGET_SEEDS seeds completed, and finished cleanly.
 TARGET_SEEDS, TARGET_COMPLETED, TARGET_CLEAN = 10, 9, 8
@@ -62,10 +67,12 @@ def plan() -> tuple[list[str], list[int]]:
     return ordered(tasks, TASK_ORDER), sorted(int(s) for s in params.get("seed", []))
 
 
-def groups(variant: str | None = None) -> list[tuple[str, str, str]]:
-    """``(group, member, what it does)`` for each group ``conf/variant/<variant>.yaml`` (default: the
-    study's method's) selects; what it does is the member's own comment (``conf/<group>/<member>.yaml``)."""
-    conf = OmegaConf.load(CONF / "variant" / f"{variant or METHOD}.yaml")
+def groups(method: str | None = None) -> list[tuple[str, str, str]]:
+    """``(group, member, what it does)`` for each group a method (default: the study's) selects: those
+    its ``conf/variant/<variant>.yaml`` selects, then each ``+group=member`` its name adds; what it does
+    is the member's own comment (``conf/<group>/<member>.yaml``)."""
+    variant, *more = (method or METHOD).split("+")
+    conf = OmegaConf.load(CONF / "variant" / f"{variant}.yaml")
     out = []
     for entry in conf.get("defaults") or []:
         if not isinstance(entry, dict) and not OmegaConf.is_dict(entry):
@@ -73,6 +80,8 @@ def groups(variant: str | None = None) -> list[tuple[str, str, str]]:
         for key, member in dict(entry).items():
             group = key.split("/")[-1].strip()
             out.append((group, str(member), _comment(CONF / group / f"{member}.yaml")))
+    for group, member in (g.split("=", 1) for g in more):
+        out.append((group, member, _comment(CONF / group / f"{member}.yaml")))
     return out
 
 
@@ -101,9 +110,15 @@ def task_defaults(group: str) -> dict[str, str]:
 
 
 def default_method() -> str:
-    """The method the paper tasks select by default (``conf/task/paper_*.yaml``'s variant; the first of
-    :data:`ORDER` where they select none of it)."""
-    chosen = set(task_defaults("variant").values())
+    """The method the paper tasks select by default (``conf/task/paper_*.yaml``'s variant and the method
+    groups they select, named as the analysis names it; the first of :data:`ORDER` where they select none
+    of it)."""
+    variants = task_defaults("variant")
+    picked = {g: task_defaults(g) for g in GROUPS}
+    chosen = {
+        method_name({"variant": v, **{g: picked[g].get(task) for g in GROUPS}})
+        for task, v in variants.items()
+    }
     return next((v for v in ORDER if v in chosen), ORDER[0])
 
 
