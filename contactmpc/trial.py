@@ -8,7 +8,9 @@ With a planning latency L (``planner.latency`` or ``planner.latency_model``, MuJ
 simulated), the plan computed from the state at t takes effect at t + L; until then the plant follows
 the previous plan. Plans start every ``max(replan_period, L)``: with L the longer, the next plan
 starts from the state at t + L, when the last one takes effect (continuous replanning). L = 0 is the
-synchronous loop, bit for bit.
+synchronous loop, bit for bit. With ``planner.compensate_latency`` (``compensation=predict``) the plan
+computed at t starts from the state predicted at t + L instead (:meth:`Planner.predict
+<contactmpc.control.planners.base.Planner.predict>`), its window starting there.
 """
 
 from __future__ import annotations
