@@ -349,15 +349,23 @@ def others() -> list[str]:
     return [v for v in ORDER if v != METHOD]
 
 
+def pairs() -> list[tuple[str, str]]:
+    """What the side-by-side compares: each method of :data:`ORDER` against the one after it (the method
+    it adds one step to: a lever's effect), then :data:`METHOD` against the paper's method where that is
+    not among them."""
+    steps = list(zip(ORDER, ORDER[1:], strict=False))
+    return steps + ([(METHOD, BASELINE)] if (METHOD, BASELINE) not in steps and METHOD != BASELINE else [])
+
+
 def paired(df: pd.DataFrame) -> tuple[str, str]:
-    """The side-by-side table of :data:`METHOD` against each other method on the seeds both have, and its
+    """The side-by-side table of each pair (:func:`pairs`) on the seeds both methods have, and its
     findings."""
     ok = counted(df)
     tasks, _ = plan()
     rows, notes = [], []
-    for other in others():
+    for first, other in pairs():
         for task in tasks:
-            a, b = (cell(ok, task, v) if len(ok) else ok for v in (METHOD, other))
+            a, b = (cell(ok, task, v) if len(ok) else ok for v in (first, other))
             if not len(a) or not len(b):
                 continue
             common = sorted(set(a["seed"]) & set(b["seed"]))
@@ -383,23 +391,23 @@ def paired(df: pd.DataFrame) -> tuple[str, str]:
                     else f"not significant; {power}: little power at these counts"
                 )
                 rows.append(
-                    f"| {other} | {task} | {measure} | {seeds(common)} | {k1}/{n} / {k2}/{n} "
+                    f"| {first} | {other} | {task} | {measure} | {seeds(common)} | {k1}/{n} / {k2}/{n} "
                     f"| {100 * d:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}] | {p:.3g} | {p_min:.3g} "
                     f"| {seeds(only_a)} | {seeds(only_b)} | {verdict} |"
                 )
                 notes.append(
-                    f"- **{task}**, {measure} ({n} seed{'s' if n != 1 else ''} in both): `{METHOD}` "
+                    f"- **{task}**, {measure} ({n} seed{'s' if n != 1 else ''} in both): `{first}` "
                     f"{of(k1, n)}, `{other}` {of(k2, n)}; {100 * d:+.0f} points "
                     f"[{100 * lo:+.0f}, {100 * hi:+.0f}], Barnard's p = {p:.3g} ({verdict})."
                 )
     if not rows:
         return "", "Not measured yet: no task has trials of two methods on a common seed.\n"
     cols = (
-        "against", "task", "measure", "seeds in both", f"{METHOD} / other",
+        "method", "against", "task", "measure", "seeds in both", "method / against",
         "difference, points [95 % CI]", "Barnard p", "smallest attainable p",
-        f"seeds only {METHOD}", "seeds only the other", "reading",
+        "seeds only the method", "seeds only the other", "reading",
     )  # fmt: skip
-    return pipe_table(cols, "llllrrrrlll", rows), "\n".join(notes) + "\n"
+    return pipe_table(cols, "lllllrrrrlll", rows), "\n".join(notes) + "\n"
 
 
 # -------------------------------------------------------------------------------------------- failures
@@ -569,12 +577,13 @@ def report(study) -> str:
         f"≥ {TARGET_COMPLETED} of {TARGET_SEEDS} seeds completed and ≥ {TARGET_CLEAN} of {TARGET_SEEDS} "
         "finished cleanly; with fewer seeds kept, whether it can still be met.\n\n"
         + table(df)
-        + f"\n## `{METHOD}` against {codes(others())} on the same seeds\n\n"
-        "Per other method and task, on the seeds both methods have: the counts, the difference in rate "
-        f"(`{METHOD}` − the other, points) with Newcombe's 95 % interval, Barnard's exact two-sided p "
-        "(`analysis.inference`; the seeds are paired, the test treats the two sides as independent samples) "
-        "and the smallest p any outcome could give at these counts; the seeds only one method completes "
-        "(or finishes cleanly).\n\n"
+        + "\n## Each step, on the same seeds\n\n"
+        "Each method against the one it adds a step to ("
+        + "; ".join(f"`{a}` against `{b}`" for a, b in pairs())
+        + "), per task on the seeds both have: the counts, the difference in rate (the method − the other, "
+        "points) with Newcombe's 95 % interval, Barnard's exact two-sided p (`analysis.inference`; the seeds "
+        "are paired, the test treats the two sides as independent samples) and the smallest p any outcome "
+        "could give at these counts; the seeds only one of them completes (or finishes cleanly).\n\n"
         + (side + "\n" if side else "")
         + notes
         + "\n## Online, in wall-clock time\n\n"
