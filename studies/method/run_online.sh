@@ -14,16 +14,20 @@ cd "$(dirname "$0")/../.."
 : "${CONTACTMPC_PAPER_DATA:?set CONTACTMPC_PAPER_DATA to the mjpc/tasks directory of the paper authors}"
 PY=${PY:-python}
 KEEP=studies/method/online
-for variant in ${VARIANTS:-grasp_release_ahead grasp_release}; do
+for method in ${VARIANTS:-grasp_release_ahead grasp_release}; do
+  # a method is a variant, then +group=member for each group on top (grasp_release_ahead+effort=acquire)
+  variant=${method%%+*}; groups=""
+  if [[ $method == *+* ]]; then groups=${method#*+}; groups=${groups//+/ }; fi
   for task in ${TASKS:-paper_doorknob paper_apple paper_bottle paper_stapler}; do
     for slowdown in ${SLOWDOWNS:-1 2 3}; do
       every=1
       for seed in 0 1; do
-        name="${task}_${variant}_slowdown${slowdown}_seed${seed}"
+        name="${task}_${method//[+=]/_}_slowdown${slowdown}_seed${seed}"
         dir="outputs/method_online/$name"
         # shellcheck disable=SC2086
-        $PY launch.py job=online task="$task" variant="$variant" planner.nthread=2 job.slowdown="$slowdown" \
-          job.progress=false seed="$seed" ${EXTRA:-} hydra.run.dir="$dir" || echo "run failed: $name"
+        $PY launch.py job=online task="$task" variant="$variant" $groups planner.nthread=2 \
+          job.slowdown="$slowdown" job.progress=false seed="$seed" ${EXTRA:-} hydra.run.dir="$dir" \
+          || echo "run failed: $name"
         if [[ -f "$dir/trial.json" ]]; then
           mkdir -p "$KEEP/$name" && cp "$dir/trial.json" "$KEEP/$name/trial.json"
         fi
