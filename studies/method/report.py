@@ -482,7 +482,7 @@ def _online_row(r: dict) -> str:
     yes = {True: "yes", False: "no"}
     slowdown, factor = r.get("slowdown", math.nan), r.get("real_time_factor", math.nan)
     return (
-        f"| {r.get('task', '').removeprefix('paper_')} | {r.get('variant')} | {r.get('seed')} "
+        f"| {r.get('task', '').removeprefix('paper_')} | {method_name(r)} | {r.get('seed')} "
         f"| {Fmt.num(slowdown, 0)} | {Fmt.num(factor, 3)} "
         f"| {_ms(r, 'replan_interval_median')} | {_ms(r, 'plan_latency_median')} "
         f"| {yes[bool(r.get('completed'))]} | {yes[bool(r.get('finished_cleanly'))]} "
@@ -504,12 +504,19 @@ def online(study) -> str:
     if not paths:
         return head + "No online run is kept yet.\n"
     records = [json.loads(p.read_text()) for p in paths]
+    rank = {t: i for i, t in enumerate(TASK_ORDER)} | {m: i for i, m in enumerate(ORDER)}
+
+    def order(r: dict) -> tuple:
+        task = r.get("task", "").removeprefix("paper_")
+        return rank.get(task, 99), rank.get(method_name(r), 99), r.get("slowdown") or 0, r.get("seed") or 0
+
+    records.sort(key=order)
     rows = [_online_row(r) for r in records]
     cols = (
         "task", "method", "seed", "slowdown", "real-time factor", "replan interval, median (ms)",
         "plan latency, median (ms)", "completed", "finished cleanly", "TTF",
     )  # fmt: skip
-    name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {r.get('variant')}"  # noqa: E731
+    name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {method_name(r)}"  # noqa: E731
     table, prose, _ = by_slowdown(records, name)
     return (
         head
