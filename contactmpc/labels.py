@@ -40,6 +40,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "wrist_clearance": "full",
     "grasp_release": "full",
     "grasp_release_ahead": "full",
+    "grasp_release_ahead_acquire": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -73,6 +74,14 @@ NAMED_METHODS: dict[str, dict[str, str]] = {
         "shaping": "clearance",
         "release": "flat",
         "compensation": "predict",
+    },
+    "grasp_release_ahead_acquire": {
+        "variant": "grasp_release_ahead_acquire",
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "flat",
+        "compensation": "predict",
+        "effort": "acquire",
     },
 }
 """Variants of today that name a combination of groups (``conf/variant/<name>.yaml``'s defaults), read
@@ -116,7 +125,7 @@ def method_name(labels: Mapping[str, Any]) -> str | None:
     """The name of the method a record ran (see :func:`method_labels`): the variant's when every
     group is at its default, the old variant's of the combination where there was one
     (``wrist_clearance``, ``release_flat``), else the project's named method it adds groups to followed by
-    each of them (``grasp_release_ahead+effort=acquire``), else the variant followed by each group off its
+    each of them (``grasp_release+effort=acquire``), else the variant followed by each group off its
     default, ``+group=member`` (``joint_space+wrist=acquire``). ``None`` without a variant label."""
     found = method_labels(labels)
     variant = found["variant"]
@@ -129,7 +138,7 @@ def method_name(labels: Mapping[str, Any]) -> str | None:
     if (name := _NAMES.get((base, *groups))) is not None:
         return name
     # a named method with more groups on top: the one naming the most of the record's groups, then the
-    # groups it leaves at their defaults (grasp_release_ahead+effort=acquire)
+    # groups it leaves at their defaults (grasp_release+effort=acquire)
     within = [
         (sum(g in named for g in GROUPS), name)
         for name, named in NAMED_METHODS.items()

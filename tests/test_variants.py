@@ -120,8 +120,9 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
         == set(OLD_VARIANTS) | {"full", "no_contact", "joint_space", "replay", "robust"}
     )
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
-    # (wrist, wrist_clearance) or that are the project's methods (grasp_release, grasp_release_ahead)
-    assert len(VARIANTS) <= 9
+    # (wrist, wrist_clearance) or that are the project's methods (grasp_release and the two that add a
+    # group each to it: grasp_release_ahead, grasp_release_ahead_acquire)
+    assert len(VARIANTS) <= 10
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -301,11 +302,12 @@ def test_compensation_is_a_group_and_names_the_method_with_it():
     found = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS} | {"variant": "grasp_release"}
     assert labels.method_name(found) == "grasp_release_ahead"
     assert labels.method_name({**found, "compensation": "none"}) == "grasp_release"
-    # a named method with a group more: its name, then the group (and the name reads back the same)
-    assert labels.method_name({**found, "effort": "acquire"}) == "grasp_release_ahead+effort=acquire"
-    assert labels.method_name({"variant": "grasp_release_ahead+effort=acquire"}) == (
-        "grasp_release_ahead+effort=acquire"
-    )
+    # with effort=acquire it is grasp_release_ahead_acquire; a named method with a group more than any
+    # name covers: its name, then the group (and the name reads back the same)
+    assert labels.method_name({**found, "effort": "acquire"}) == "grasp_release_ahead_acquire"
+    groups = {"wrist": "acquire", "shaping": "clearance", "release": "flat", "effort": "acquire"}
+    assert labels.method_name({"variant": "full", **groups}) == "grasp_release+effort=acquire"
+    assert labels.method_name({"variant": "grasp_release+effort=acquire"}) == "grasp_release+effort=acquire"
     assert labels.method_name({"variant": "full", "effort": "acquire"}) == "full+effort=acquire"
     assert labels.method_labels({"variant": "grasp_release_ahead"}) == found | {
         "variant": "grasp_release_ahead"

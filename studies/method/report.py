@@ -34,7 +34,7 @@ TITLE = "The method: grasp_release(_ahead) on the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
     "python launch.py experiment=method variant=grasp_release_ahead effort=acquire "
-    "hydra.sweep.dir=studies/method/records",
+    "hydra.sweep.dir=studies/method/records  # = variant=grasp_release_ahead_acquire",
     *(
         f"python launch.py experiment=method variant={v} hydra.sweep.dir=studies/method/records"
         for v in ("grasp_release_ahead", "grasp_release", "full")
@@ -44,7 +44,7 @@ EXPERIMENTS = [
 HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
-ORDER = ("grasp_release_ahead+effort=acquire", "grasp_release_ahead", "grasp_release", "full")
+ORDER = ("grasp_release_ahead_acquire", "grasp_release_ahead", "grasp_release", "full")
 BASELINE = "full"
 #: The issue's target per task: at least this many of TARGET_SEEDS seeds completed, and finished cleanly.
 TARGET_SEEDS, TARGET_COMPLETED, TARGET_CLEAN = 10, 9, 8
@@ -55,9 +55,16 @@ ALPHA = 0.05
 
 
 def variants() -> list[str]:
-    """The methods run.sh runs, in its order (``${VARIANTS:-a b}``); else :data:`ORDER`."""
+    """The methods run.sh runs, in its order (``${VARIANTS:-a b}``), named as the analysis names them
+    (``grasp_release_ahead+effort=acquire`` is ``grasp_release_ahead_acquire``); else :data:`ORDER`."""
     m = re.search(r"\$\{VARIANTS:-([^}]*)\}", (HERE / "run.sh").read_text())
-    return m[1].split() if m else list(ORDER)
+    if not m:
+        return list(ORDER)
+    out = []
+    for method in m[1].split():
+        variant, *more = method.split("+")
+        out.append(method_name({"variant": variant, **dict(g.split("=", 1) for g in more)}))
+    return out
 
 
 def plan() -> tuple[list[str], list[int]]:
