@@ -26,6 +26,22 @@ def _trial(scene, ref, duration=0.2, **planner_args):
     return trial, planner
 
 
+def _same_log(scene, ref, *planner_args: dict) -> None:
+    """Trials with each of ``planner_args`` (a plan every 50 ms) log the same, bit for bit (but the plans'
+    wall time)."""
+    runs = []
+    for args in planner_args:
+        trial, planner = _trial(scene, ref, replan_period=0.05, **args)
+        try:
+            runs.append(trial.run().arrays())
+        finally:
+            planner.close()
+    for key in runs[0]:
+        if key != "plan_seconds":
+            for other in runs[1:]:
+                np.testing.assert_array_equal(runs[0][key], other[key], err_msg=key)
+
+
 def _recorded(monkeypatch, trial, planner):
     """Run ``trial``, recording every plant step's control time and finger targets, and the committed
     control points after every plan: (steps [(t, ctrl)], plans [(t, theta)], log)."""
@@ -80,16 +96,7 @@ def test_a_plan_takes_effect_exactly_its_latency_later(monkeypatch, scene_for, l
 def test_latency_zero_is_the_synchronous_loop_bit_for_bit(scene_for):
     scene = scene_for("apple")
     ref = static_reference(scene, duration=0.3, frames=11)
-    runs = []
-    for args in ({}, {"latency": 0.0}):
-        trial, planner = _trial(scene, ref, replan_period=0.05, **args)
-        try:
-            runs.append(trial.run().arrays())
-        finally:
-            planner.close()
-    for key in runs[0]:
-        if key != "plan_seconds":
-            np.testing.assert_array_equal(runs[0][key], runs[1][key], err_msg=key)
+    _same_log(scene, ref, {}, {"latency": 0.0})
 
 
 def test_a_latency_longer_than_the_replan_period_replans_continuously(scene_for):
@@ -187,16 +194,7 @@ def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect
     np.testing.assert_allclose([t for t, _ in seen], [0.07, 0.14, 0.21, 0.28])  # planned 70 ms ahead
     np.testing.assert_allclose([s for _, s in seen], [0.07, 0.14, 0.21, 0.28])  # from states then
     np.testing.assert_allclose(log["time"], [0.0, 0.07, 0.14, 0.21])  # the loop's clock as before
-    runs = []
-    for args in ({}, {"compensate_latency": True}):  # no latency: nothing to compensate
-        trial, planner = _trial(scene, ref, replan_period=0.05, **args)
-        try:
-            runs.append(trial.run().arrays())
-        finally:
-            planner.close()
-    for key in runs[0]:
-        if key != "plan_seconds":
-            np.testing.assert_array_equal(runs[0][key], runs[1][key], err_msg=key)
+    _same_log(scene, ref, {}, {"compensate_latency": True})  # no latency: nothing to compensate
 
 
 def test_a_prediction_shorter_than_a_planning_step_or_diverged_is_the_state_measured():
