@@ -44,7 +44,8 @@ def _same_log(scene, ref, *planner_args: dict) -> None:
 
 def _recorded(monkeypatch, trial, planner):
     """Run ``trial``, recording every plant step's control time and finger targets, and the committed
-    control points after every plan: (steps [(t, ctrl)], plans [(t, theta)], log)."""
+    control points after every plan: (steps [(t, ctrl)], plans [(t, theta, the time of the state planned
+    from)], log)."""
     steps, plans = [], []
     scene = trial.scene
     real_step, real_plan = mujoco.mj_step, planner.plan
@@ -56,7 +57,7 @@ def _recorded(monkeypatch, trial, planner):
 
     def plan(t, state, rng):
         info = real_plan(t, state, rng)
-        plans.append((t, planner.theta.copy()))
+        plans.append((t, planner.theta.copy(), state[0]))
         return info
 
     monkeypatch.setattr(mujoco, "mj_step", step)
@@ -77,7 +78,7 @@ def test_a_plan_takes_effect_exactly_its_latency_later(monkeypatch, scene_for, l
     trial, planner = _trial(scene, ref, replan_period=0.05, latency=latency)
     steps, plans, log = _recorded(monkeypatch, trial, planner)
     assert trial.latency == latency and trial.replan_interval == 0.05
-    np.testing.assert_allclose([t for t, _ in plans], [0.0, 0.05, 0.1, 0.15])
+    np.testing.assert_allclose([p[0] for p in plans], [0.0, 0.05, 0.1, 0.15])
     space, spline = planner.problem.space, planner.problem.spline
     theta0 = planner.problem.theta0
     changed = 0
@@ -169,7 +170,7 @@ def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect
     ref = static_reference(scene, duration=0.4, frames=11)
     trial, planner = _trial(scene, ref, duration=0.25, replan_period=0.01, latency=0.07,
                             compensate_latency=True)  # fmt: skip
-    seen, real_plan, real_predict = [], planner.plan, planner.predict
+    real_predict = planner.predict
 
     def predict(t, state, duration):
         ahead = real_predict(t, state, duration)
@@ -181,18 +182,10 @@ def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect
         assert np.abs(ahead[1][1:] - state[1:]).max() > 0  # the hand moves in between
         return ahead
 
-    def plan(t, state, rng):
-        seen.append((t, state[0]))
-        return real_plan(t, state, rng)
-
     monkeypatch.setattr(planner, "predict", predict)
-    monkeypatch.setattr(planner, "plan", plan)
-    try:
-        log = trial.run().arrays()
-    finally:
-        planner.close()
-    np.testing.assert_allclose([t for t, _ in seen], [0.07, 0.14, 0.21, 0.28])  # planned 70 ms ahead
-    np.testing.assert_allclose([s for _, s in seen], [0.07, 0.14, 0.21, 0.28])  # from states then
+    _, plans, log = _recorded(monkeypatch, trial, planner)
+    np.testing.assert_allclose([p[0] for p in plans], [0.07, 0.14, 0.21, 0.28])  # planned 70 ms ahead
+    np.testing.assert_allclose([p[2] for p in plans], [0.07, 0.14, 0.21, 0.28])  # from states then
     np.testing.assert_allclose(log["time"], [0.0, 0.07, 0.14, 0.21])  # the loop's clock as before
     _same_log(scene, ref, {}, {"compensate_latency": True})  # no latency: nothing to compensate
 
