@@ -563,10 +563,23 @@ def findings(df: pd.DataFrame) -> str:
     met = [t for t, v in verdicts.items() if v.startswith("met")]
     missed = [t for t, v in verdicts.items() if v.startswith("missed")]
     head = (
-        f"Of the {len(tasks)} tasks, the target is met on {len(met)} ({', '.join(met) or 'none'}), missed on "
-        f"{len(missed)} ({', '.join(missed) or 'none'}) and open on {len(tasks) - len(met) - len(missed)}."
+        f"For `{METHOD}`, of the {len(tasks)} tasks, the target is met on {len(met)} "
+        f"({', '.join(met) or 'none'}), missed on {len(missed)} ({', '.join(missed) or 'none'}) and open on "
+        f"{len(tasks) - len(met) - len(missed)}."
     )
-    return head + "\n\n" + "\n".join(out) + "\n"
+    others_met = []
+    for task in tasks:
+        for v in others():
+            g = cell(ok, task, v)
+            k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
+            if n and target(k, c, n).startswith("met"):
+                others_met.append(f"{task} by `{v}` ({k}/{n} completed, {c}/{n} finished cleanly)")
+    tail = (
+        "\n\nThe target is met by another method on: " + "; ".join(others_met) + "."
+        if others_met
+        else "\n\nNo other method meets the target on any task."
+    )
+    return head + tail + "\n\n" + "\n".join(out) + "\n"
 
 
 def report(study) -> str:
