@@ -276,11 +276,13 @@ def test_the_release_node_has_a_schema():
 @pytest.mark.parametrize("task", ["paper_apple", "paper_bottle", "paper_doorknob", "paper_stapler"])
 def test_a_paper_task_chooses_the_project_s_method_and_the_command_line_wins(task):
     choices = compose_config([f"task={task}"], return_hydra_config=True).hydra.runtime.choices
-    assert (choices.variant, choices.preset) == ("grasp_release", "paper_32samples_calibrated")
+    assert (choices.variant, choices.preset) == ("grasp_release_ahead_acquire", "paper_32samples_calibrated")
     assert (choices.wrist, choices.shaping, choices.release) == ("acquire", "clearance", "flat")
+    assert (choices.compensation, choices.effort) == ("predict", "acquire")
     cfg = compose_config([f"task={task}", "variant=full", "preset=paper"], return_hydra_config=True)
     assert (cfg.hydra.runtime.choices.variant, cfg.hydra.runtime.choices.preset) == ("full", "paper")
     assert (cfg.hydra.runtime.choices.shaping, cfg.hydra.runtime.choices.release) == ("none", "none")
+    assert (cfg.hydra.runtime.choices.compensation, cfg.hydra.runtime.choices.effort) == ("none", "uniform")
     assert cfg.planner.num_samples == 128
 
 
