@@ -105,10 +105,17 @@ def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
     gave) adds that entry's groups where the labels leave them at their defaults, so reading
     :func:`method_name`'s result again gives the same method.
 
+    A variant label with groups on top, as :func:`method_name` writes them
+    (``grasp_release+effort=acquire``), is that variant with those groups.
+
     Args:
         labels: the record's fields (or any mapping with ``variant`` and the groups' names).
     """
     variant = labels.get("variant")
+    if isinstance(variant, str) and "+" in variant:
+        base, *more = variant.split("+")
+        added = dict(g.split("=", 1) for g in more)
+        return method_labels({**labels, "variant": base, **{g: m for g, m in added.items() if g in GROUPS}})
     if variant in _LABELS:
         # an old variant's name, or a method's name that method_name gave: its groups, where the labels
         # leave them at their defaults (so reading a method's own name again gives the same method)

@@ -15,7 +15,7 @@ import yaml
 from analysis.prose import median, of, ratio, seeds, span
 from analysis.study import REPO
 from analysis.summarize import Fmt, Stat, markdown, summarize
-from contactmpc.labels import method_name
+from contactmpc.labels import method_labels, method_name
 
 TITLE = "The cheap screen of the method levers (issue 33)"
 EXPERIMENTS = ["bash studies/method_screen/run_screen.sh"]
@@ -68,8 +68,7 @@ def _value(v: object, default: object) -> object:
 def _without_compensation(name: str) -> str:
     """A method's name (``full+wrist=acquire+shaping=clearance+compensation=predict``, or a variant's)
     with its compensation group at the default (``wrist_clearance``)."""
-    base, *groups = name.split("+")
-    return method_name({"variant": base, **dict(g.split("=", 1) for g in groups), "compensation": "none"})
+    return method_name({**method_labels({"variant": name}), "compensation": "none"})
 
 
 def lever(row: dict) -> str:
