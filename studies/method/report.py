@@ -156,7 +156,35 @@ def frame(study) -> pd.DataFrame:
         df[c] = values.map(lambda v: isinstance(v, bool | np.bool_) and bool(v)).astype(bool) & ok
     for c in ("ttf", "cpu_seconds", "failure_time"):
         df[c] = pd.to_numeric(df[c] if c in df else pd.Series(math.nan, index=df.index), errors="coerce")
+    # the cost columns compare CPU seconds on one processor only: the one most records ran on
+    cost_cpu = cost_processor(df)
+    df["cpu_seconds"] = df["cpu_seconds"].where(df["cpu"].eq(cost_cpu) if "cpu" in df else False)
+    df.attrs["cost_processor"] = cost_cpu
     return release.with_errors(df)
+
+
+def cost_processor(df: pd.DataFrame) -> str | None:
+    """The processor the most records ran on (ties: the first by name): the CPU seconds of trials on
+    different processors are not compared, so every cost in the report is a cost on this one."""
+    if "cpu" not in df or not df["cpu"].notna().any():
+        return None
+    counts = df["cpu"].dropna().astype(str).value_counts()
+    return sorted(counts.index, key=lambda c: (-counts[c], c))[0]
+
+
+def cost_note(df: pd.DataFrame) -> str:
+    """Which records the CPU seconds come from (:func:`cost_processor`)."""
+    cpu = df.attrs.get("cost_processor")
+    if cpu is None or "cpu" not in df:
+        return ""
+    n, other = int(df["cpu"].eq(cpu).sum()), int(df["cpu"].ne(cpu).sum())
+    if not other:
+        return f"CPU-s: seconds of one core of the {cpu} each trial ran on.\n"
+    return (
+        f"CPU-s: seconds of one core of the {cpu}, from its {n} records alone; the {other} records from "
+        "other processors count in every other column but not in the costs (one processor's seconds are "
+        "not another's).\n"
+    )
 
 
 def counted(df: pd.DataFrame) -> pd.DataFrame:
@@ -600,6 +628,8 @@ def report(study) -> str:
         f"≥ {TARGET_COMPLETED} of {TARGET_SEEDS} seeds completed and ≥ {TARGET_CLEAN} of {TARGET_SEEDS} "
         "finished cleanly; with fewer seeds kept, whether it can still be met.\n\n"
         + table(df)
+        + "\n"
+        + cost_note(df)
         + "\n## Each step, on the same seeds\n\n"
         "Each method against the one it adds a step to ("
         + "; ".join(f"`{a}` against `{b}`" for a, b in pairs())
