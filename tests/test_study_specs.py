@@ -64,3 +64,36 @@ def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_tar
     assert spec.target(4, 4, 4).startswith("open: 4 of 10 seeds kept; of the 6 left, needs 5 more completed")
     # Barnard's test at 10 a side: 0 of 10 against 4 of 10 is the least difference it calls (p < 0.05)
     assert spec.smallest_difference(0, 10) == 4 and spec.smallest_difference(1, 2) is None
+
+
+def test_the_method_study_compares_costs_on_one_processor_and_says_why_a_trial_is_not_clean() -> None:
+    """The costs come from the processor most records ran on (another's seconds are not compared); the
+    shortfall names the milestones a trial missed and whether the object moved on after the span."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    df = pd.DataFrame({"cpu": ["A", "B", "B", None]})
+    assert spec.cost_processor(df) == "B"
+    assert spec.cost_processor(pd.DataFrame({"cpu": ["B", "A"]})) == "A"  # a tie: the first by name
+    assert spec.cost_processor(pd.DataFrame({"x": [1]})) is None
+    method, seeds = spec.METHOD, [0, 1, 2]
+    trials = pd.DataFrame(
+        {
+            "task": ["doorknob"] * 3,
+            "variant": [method] * 3,
+            "seed": seeds,
+            "status": ["ok"] * 3,
+            "counted": [True] * 3,
+            "completed": [True, True, False],
+            "finished_cleanly": [True, False, False],
+            "milestone_pulled": [True, True, False],
+            "object_articulation_error_span_final": [0.01, 0.02, 0.2],
+            "_final": [0.01, 0.3, 0.2],
+        }
+    )
+    trials.attrs["error_kinds"] = {"doorknob": "articulation"}
+    text = spec.shortfall(trials)
+    assert "1 of 3 finished cleanly" in text
+    assert "not completed on seed 2 (`pulled` not reached on 2)" in text
+    assert "completed but not settled on seed 1" in text and "median 20 x 1e-3" in text
+    assert "at the trial's end 300" in text and "the object moved on after the hand let go" in text

@@ -560,6 +560,74 @@ def online(study) -> str:
     )
 
 
+# --------------------------------------------------------------------------------------------- shortfall
+
+
+def _span_final(df: pd.DataFrame) -> pd.Series:
+    """Each trial's object error at the end of its contact span (the task's kind, as ``_final``)."""
+    kinds = df.attrs.get("error_kinds", {})
+    column = lambda task: f"{release.ERRORS[kinds.get(task, 'position')]}_span_final"  # noqa: E731
+    values = [r.get(column(r["task"]), math.nan) for r in df.to_dict("records")]
+    return pd.to_numeric(pd.Series(values, index=df.index, dtype=object), errors="coerce")
+
+
+def _seeds(values) -> str:
+    return ("seeds " if len(values) > 1 else "seed ") + seeds(values)
+
+
+def shortfall(df: pd.DataFrame) -> str:
+    """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
+    milestones they missed, when the failure rule fired) and those completed but not settled (the object
+    error at the end of the contact span, where the hand lets go, against the trial's end: an object that
+    was where the reference has it when the hand let go and moved on afterwards)."""
+    ok = counted(df)
+    if not len(ok):
+        return "Not measured yet.\n"
+    kinds = ok.attrs.get("error_kinds", {})
+    out = []
+    for task in plan()[0]:
+        g = cell(ok, task, METHOD)
+        if not len(g):
+            continue
+        unit = "mm" if kinds.get(task) == "position" else "x 1e-3 (rad, or m for a slide)"
+        scale = 1e3
+        short = g[~g["finished_cleanly"]]
+        head = f"- **{task}**: {of(int(g['finished_cleanly'].sum()), len(g))} finished cleanly"
+        if not len(short):
+            out.append(head + ".")
+            continue
+        parts = []
+        failed = short[~short["completed"]]
+        if len(failed):
+            missed = {}
+            for r in failed.to_dict("records"):
+                for k, v in r.items():
+                    if k.startswith("milestone_") and isinstance(v, bool | np.bool_) and not v:
+                        missed.setdefault(k.removeprefix("milestone_"), []).append(int(r["seed"]))
+            parts.append(
+                f"not completed on {_seeds(failed['seed'])} ("
+                + "; ".join(f"`{m}` not reached on {seeds(s)}" for m, s in missed.items())
+                + ")"
+            )
+        done = short[short["completed"]]
+        if len(done):
+            at_span, final = _span_final(done) * scale, done["_final"] * scale
+            moved = done[(final > 2 * at_span.clip(lower=1e-9)).to_numpy()]
+            parts.append(
+                f"completed but not settled on {_seeds(done['seed'])}: the object error where the "
+                f"contact span ends (where the hand lets go) median {at_span.median():.0f} {unit}, at the "
+                f"trial's end {final.median():.0f} {unit}"
+                + (
+                    f"; on {of(len(moved), len(done))} it at least doubled after the span: the object moved "
+                    "on after the hand let go"
+                    if len(moved)
+                    else ""
+                )
+            )
+        out.append(head + "; " + "; ".join(parts) + ".")
+    return "\n".join(out) + "\n"
+
+
 # ---------------------------------------------------------------------------------------------- report
 
 
@@ -621,6 +689,11 @@ def report(study) -> str:
         + missing(df)
         + "\n## What the records show\n\n"
         + findings(df)
+        + "\n## Where the method falls short\n\n"
+        + f"Per task, `{METHOD}`'s trials that did not finish cleanly, and what kept them from it (from the "
+        "records: the milestones they missed; the object error where the contact span ends against the "
+        "trial's end). The timelines of the trials that failed are under *Failures*.\n\n"
+        + shortfall(df)
         + "\n## Per task and method\n\n"
         "Trials: those that ran to their end (a diverged trial counts, not completed), of the planned seeds. "
         "The object error is the free body's position (mm), or on the doorknob its articulations "
