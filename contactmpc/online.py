@@ -154,10 +154,7 @@ class OnlineLoop:
                         return
                     last, t, state = self._state
                 start = time.perf_counter()
-                if planner.compensate_latency and self.plans:  # plan from where the plant will be
-                    info = planner.plan(*planner.predict(t, state, self.expected_latency()), rng)
-                else:
-                    info = planner.plan(t, state, rng)
+                info = planner.plan(t, state, rng, ahead=self.expected_latency())
                 theta = planner.theta.copy()
                 theta.flags.writeable = False
                 with self._lock:

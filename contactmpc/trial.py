@@ -185,10 +185,7 @@ class Trial:
                     seen, earlier = (seen if earlier is None else earlier), seen.copy()
                 if lag:  # the previous plan's targets until this one takes effect
                     previous = planner.targets(t + offsets[:lag])
-                if lag and planner.compensate_latency:  # plan from where the plant will be then
-                    info = planner.plan(*planner.predict(t, seen, lag * dt), rng)
-                else:
-                    info = planner.plan(t, seen, rng)
+                info = planner.plan(t, seen, rng, ahead=lag * dt)
                 if not lag:
                     targets = planner.targets(t + offsets)
                 elif lag < per_plan:

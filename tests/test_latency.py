@@ -48,20 +48,20 @@ def _recorded(monkeypatch, trial, planner):
     from)], log)."""
     steps, plans = [], []
     scene = trial.scene
-    real_step, real_plan = mujoco.mj_step, planner.plan
+    real_step, real_plan = mujoco.mj_step, planner._plan
     fingers = scene.index.actuators
 
     def step(m, d, *args):
         steps.append((len(steps) * m.opt.timestep, d.ctrl[fingers].copy()))
         real_step(m, d, *args)
 
-    def plan(t, state, rng):
-        info = real_plan(t, state, rng)
+    def plan(t, state, rng, start):  # the time and state planned from (predicted, with compensation)
+        info = real_plan(t, state, rng, start)
         plans.append((t, planner.theta.copy(), state[0]))
         return info
 
     monkeypatch.setattr(mujoco, "mj_step", step)
-    monkeypatch.setattr(planner, "plan", plan)
+    monkeypatch.setattr(planner, "_plan", plan)
     try:
         log = trial.run().arrays()
     finally:

@@ -88,7 +88,7 @@ class SlowReplay(Replay):
 
     count = 0
 
-    def plan(self, t, state, rng) -> PlanInfo:
+    def plan(self, t, state, rng, ahead=0.0) -> PlanInfo:
         self.count += 1
         half = len(self.theta) // 2
         time.sleep(0.03)
@@ -136,9 +136,9 @@ def test_a_slow_plan_is_swapped_in_whole_and_the_plant_keeps_the_old_one(apple_r
 class _SlowSampling(PredictiveSampling):
     """Predictive sampling that takes at least 60 ms of wall time a plan."""
 
-    def plan(self, t, state, rng) -> PlanInfo:
+    def plan(self, t, state, rng, ahead=0.0) -> PlanInfo:
         time.sleep(0.06)
-        return super().plan(t, state, rng)
+        return super().plan(t, state, rng, ahead)
 
 
 @pytest.mark.parametrize("compensate", [False, True])

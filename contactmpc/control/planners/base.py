@@ -316,15 +316,20 @@ class Planner:
         thetas[:, window] = candidates
         return window, candidates, thetas
 
-    def plan(self, t: float, state: np.ndarray, rng: np.random.Generator) -> PlanInfo:
+    def plan(self, t: float, state: np.ndarray, rng: np.random.Generator, ahead: float = 0.0) -> PlanInfo:
         """One planning iteration at control time ``t`` from the plant's state; commits the result.
 
         Args:
             t: control time (s).
             state: (nstate,) full-physics state of the plant.
             rng: the trial's random generator.
+            ahead: seconds after ``t`` at which the plan takes effect (its latency). With
+                :attr:`compensate_latency` the plan starts from the state :meth:`predict` gives for
+                then, its prediction counted in its compute time; else, or at 0, from ``state`` at ``t``.
         """
         start = time.perf_counter()
+        if ahead and self.compensate_latency:  # plan from where the plant will be when the plan acts
+            t, state = self.predict(t, state, ahead)
         if self._release_at is not None and t >= self._release_at - 1e-9:
             self.release()
         self._plan_samples = self.samples_at(t)
