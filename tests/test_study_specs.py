@@ -97,3 +97,21 @@ def test_the_method_study_compares_costs_on_one_processor_and_says_why_a_trial_i
     assert "not completed on seed 2 (`pulled` not reached on 2)" in text
     assert "completed but not settled on seed 1" in text and "median 20 x 1e-3" in text
     assert "at the trial's end 300" in text and "the object moved on after the hand let go" in text
+
+
+def test_the_method_studys_after_span_figure_draws_each_trial_from_its_time_series(tmp_path) -> None:
+    import numpy as np
+    import pandas as pd
+
+    spec = Study("method").spec
+    rows = []
+    for seed in (0, 1):
+        run = tmp_path / f"run{seed}"
+        run.mkdir()
+        t = np.linspace(0.0, 20.0, 101)
+        np.savez(run / "timeseries.npz", time=t, object_articulation_error=0.01 * np.maximum(t - 10.0, 0))
+        rows.append({"record_path": str(run / "trial.json"), "seed": seed, "contact_span_end": 10.0,
+                     "finished_cleanly": seed == 0})  # fmt: skip
+    out = tmp_path / "after.png"
+    spec.after_span_figure(out, "doorknob", pd.DataFrame(rows), "articulation")
+    assert out.is_file() and out.stat().st_size > 1000

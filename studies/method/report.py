@@ -575,7 +575,35 @@ def _seeds(values) -> str:
     return ("seeds " if len(values) > 1 else "seed ") + seeds(values)
 
 
-def shortfall(df: pd.DataFrame) -> str:
+def after_span_figure(path: Path, task: str, trials: pd.DataFrame, kind: str) -> None:
+    """The object error over time, from 5 s before the end of the contact span (where the hand lets go)
+    to the trial's end, one line per trial (``trials``: rows with ``record_path``, ``seed``,
+    ``contact_span_end``, ``finished_cleanly``): grey, finished cleanly; coloured, not."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    key = release.ERRORS[kind]
+    fig = Figure(figsize=(7.0, 3.2), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    colors = iter(("#d62728", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22"))
+    for r in trials.sort_values("seed").itertuples():
+        series = np.load(Path(r.record_path).parent / "timeseries.npz")
+        t = series["time"] - r.contact_span_end
+        keep = t >= -5.0
+        clean = bool(r.finished_cleanly)
+        ax.plot(t[keep], 1e3 * series[key][keep], color="0.6" if clean else next(colors, "0.2"),
+                lw=1.0 if clean else 1.6, label=f"seed {r.seed}" + (" (clean)" if clean else ""))  # fmt: skip
+    ax.axvline(0.0, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("time from the end of the contact span (s)")
+    unit = "mm" if kind == "position" else "x 1e-3 (m on the slide)"
+    ax.set_ylabel(f"object error ({unit})")
+    ax.set_title(f"{task}, {METHOD}: the object after the hand lets go", fontsize=10)
+    ax.legend(fontsize=7, ncol=2, frameon=False)
+    fig.savefig(path, dpi=110)
+
+
+def shortfall(df: pd.DataFrame, study=None) -> str:
     """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
     milestones they missed, when the failure rule fired) and those completed but not settled (the object
     error at the end of the contact span, where the hand lets go, against the trial's end: an object that
@@ -625,7 +653,18 @@ def shortfall(df: pd.DataFrame) -> str:
                 )
             )
         out.append(head + "; " + "; ".join(parts) + ".")
-    return "\n".join(out) + "\n"
+        if study is not None and len(done):
+            paths = [Path(p).parent / "timeseries.npz" for p in g["record_path"]]
+            missing_series = next((p for p in paths if not p.is_file()), None)
+            link = study.draw(
+                f"after_span_{task}.png",
+                lambda path, task=task, g=g: after_span_figure(path, task, g, kinds.get(task, "position")),
+                f"{task}: the object error after the hand lets go",
+                data=missing_series,
+            )
+            if link:
+                out += ["", f"  {link}", ""]
+    return "\n".join(out).rstrip("\n") + "\n"
 
 
 # ---------------------------------------------------------------------------------------------- report
@@ -693,7 +732,7 @@ def report(study) -> str:
         + f"Per task, `{METHOD}`'s trials that did not finish cleanly, and what kept them from it (from the "
         "records: the milestones they missed; the object error where the contact span ends against the "
         "trial's end). The timelines of the trials that failed are under *Failures*.\n\n"
-        + shortfall(df)
+        + shortfall(df, study)
         + "\n## Per task and method\n\n"
         "Trials: those that ran to their end (a diverged trial counts, not completed), of the planned seeds. "
         "The object error is the free body's position (mm), or on the doorknob its articulations "
