@@ -61,6 +61,7 @@ def by_slowdown(records: list[dict], name=None) -> tuple[dict[str, list], list[s
             )
         else:
             prose.append(
-                f"{run}: no slowdown tried ({', '.join(f'{x:g}' for x in slowdowns)}) completes every run"
+                f"{run}: no slowdown tried ({', '.join(f'{x:g}' for x in sorted(g['slowdown'].unique()))}) "
+                "completes every run"
             )
     return table, prose, df

@@ -115,3 +115,22 @@ def test_the_method_studys_after_span_figure_draws_each_trial_from_its_time_seri
     out = tmp_path / "after.png"
     spec.after_span_figure(out, "doorknob", pd.DataFrame(rows), "articulation")
     assert out.is_file() and out.stat().st_size > 1000
+
+
+def test_online_runs_name_the_slowdowns_each_method_was_tried_at() -> None:
+    from analysis.online import by_slowdown
+
+    def run(task, slowdown, completed):
+        return {"task": task, "variant": "m", "completed": completed, "replan_interval_median": 0.1,
+                "config": {"job": {"slowdown": slowdown}}}  # fmt: skip
+
+    records = [run("a", 1, False), run("b", 1, True), run("b", 1, False), run("b", 2, True)]
+    records += [run("b", 2, True), run("c", 1, True), run("c", 1, True)]
+    table, prose, _ = by_slowdown(records)
+    assert table["task and variant"] == ["a m", "b m", "c m"]
+    assert table["slowdown 2 (4 threads): completed, replan ms"] == ["—", "2 of 2, 100", "—"]
+    assert prose == [
+        "a m: no slowdown tried (1) completes every run",
+        "b m: every run completes from slowdown 2 (real time on 4 threads of this CPU)",
+        "c m: every run completes in real time on 2 threads",
+    ]
