@@ -98,6 +98,10 @@ class OnlineLoop:
         fps: how often the viewer is synchronised with the plant (per wall second).
         milestone_hold: the milestone rule's hold (s), for the viewer's overlay.
         progress: show a progress bar.
+        min_interval: control seconds from the state one plan starts from to the state the next starts
+            from, at least (not the paper's): the planner paces itself to no more than one plan per
+            ``min_interval`` (the simulated loop's rate at a latency of that much), waiting for the
+            plant; 0: continuous replanning (MuJoCo MPC's loop).
     """
 
     @checked
@@ -110,7 +114,9 @@ class OnlineLoop:
         fps: Annotated[float, Gt(0)] = 30.0,
         milestone_hold: Annotated[float, Ge(0)] = 0.3,
         progress: bool = False,
+        min_interval: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
+        self.min_interval = float(min_interval)
         self.trial = trial
         self.slowdown = float(slowdown)
         self.max_lag = float(max_lag)
@@ -144,15 +150,20 @@ class OnlineLoop:
     def _plan_loop(self, rng: np.random.Generator) -> None:
         """The planning thread: plan from each newer published state, publish each result."""
         planner = self.trial.planner
-        last = -1
+        last, due = -1, -np.inf  # the last state planned from; the control time the next may start at
+
+        def waiting() -> bool:
+            return self._state is None or self._state[0] == last or self._state[1] < due - 1e-9
+
         try:
             while True:
                 with self._new_state:
-                    while not self._stop.is_set() and (self._state is None or self._state[0] == last):
+                    while not self._stop.is_set() and waiting():
                         self._new_state.wait(0.1)
                     if self._stop.is_set():
                         return
                     last, t, state = self._state
+                due = t + self.min_interval
                 start = time.perf_counter()
                 info = planner.plan(t, state, rng, ahead=self.expected_latency())
                 theta = planner.theta.copy()
@@ -366,6 +377,7 @@ class OnlineLoop:
         return {
             "mode": "online",
             "slowdown": self.slowdown,
+            "min_interval": self.min_interval,
             "real_time_factor_target": 1.0 / self.slowdown,
             "simulated_seconds": sim,
             "wall_seconds": self.wall_seconds,

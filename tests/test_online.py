@@ -168,6 +168,27 @@ def test_online_compensation_plans_from_the_state_predicted_a_plans_compute_ahea
     assert (ahead[1:] >= 0.03 - 1e-9).all() and (ahead[1:] < 0.3).all()
 
 
+def test_an_online_planner_paced_to_a_minimum_interval_plans_no_more_often(apple_reference):
+    """OnlineLoop(min_interval=0.1): the states two plans start from are at least 0.1 s of control apart,
+    where the planner alone (a few ms a plan at 4x slower than real time) would replan every few ms."""
+    scene = build_scene(("task=apple",))
+    reference = Reference.load(apple_reference)
+    gaps = {}
+    for interval in (0.0, 0.1):
+        planner = PredictiveSampling(num_samples=4, horizon=0.2, nthread=1)
+        trial = Trial(
+            scene, reference, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.45, progress=False
+        )
+        loop = OnlineLoop(trial, slowdown=4.0, min_interval=interval)
+        try:
+            loop.run()
+        finally:
+            planner.close()
+        gaps[interval] = np.diff([p.state_time for p in loop.plans])
+    assert len(gaps[0.1]) >= 2 and (gaps[0.1] >= 0.1 - 1e-9).all()
+    assert len(gaps[0.0]) > len(gaps[0.1]) and (gaps[0.0] < 0.1 - 1e-9).any()
+
+
 class _InterruptingViewer:
     """Stands in for the viewer: Ctrl-C arrives in the plant's thread at control time 0.1 s."""
 

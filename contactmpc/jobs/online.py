@@ -42,6 +42,7 @@ def run_online(
     viewer: bool = False,
     fps: Annotated[float, Gt(0)] = 30.0,
     max_lag: Annotated[float, Gt(0)] = 0.1,
+    min_interval: Annotated[float, Ge(0)] = 0.0,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -65,6 +66,8 @@ def run_online(
         fps: viewer refreshes per wall second.
         max_lag: wall seconds the plant may fall behind its schedule and catch up; beyond, the schedule
             slips (``plant_behind_seconds``).
+        min_interval: control seconds between the states two plans start from, at least
+            (:class:`~contactmpc.online.OnlineLoop`); 0: continuous replanning.
         config: the resolved config, stored in the record.
         labels: names of the config choices for the record.
 
@@ -88,6 +91,7 @@ def run_online(
                 fps=fps,
                 milestone_hold=inputs.milestone_hold,
                 progress=inputs.progress,
+                min_interval=min_interval,
             )
             loop0 = time.perf_counter()
             try:

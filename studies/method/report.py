@@ -509,11 +509,18 @@ def _ms(r: dict, key: str) -> str:
     return Fmt.num(1e3 * r[key], 0) if isinstance(r.get(key), float) else "—"
 
 
+def online_method(r: dict) -> str:
+    """An online run's method: :func:`method_name`, and ``paced N ms`` where the planner was paced to a plan
+    every ``job.min_interval`` of control time at most."""
+    paced = r.get("min_interval") or 0.0
+    return method_name(r) + (f", paced {1e3 * paced:.0f} ms" if paced > 0 else "")
+
+
 def _online_row(r: dict) -> str:
     yes = {True: "yes", False: "no"}
     slowdown, factor = r.get("slowdown", math.nan), r.get("real_time_factor", math.nan)
     return (
-        f"| {r.get('task', '').removeprefix('paper_')} | {method_name(r)} | {r.get('seed')} "
+        f"| {r.get('task', '').removeprefix('paper_')} | {online_method(r)} | {r.get('seed')} "
         f"| {Fmt.num(slowdown, 0)} | {Fmt.num(factor, 3)} "
         f"| {_ms(r, 'replan_interval_median')} | {_ms(r, 'plan_latency_median')} "
         f"| {yes[bool(r.get('completed'))]} | {yes[bool(r.get('finished_cleanly'))]} "
@@ -530,7 +537,9 @@ def online(study) -> str:
         "threads here (`planner.nthread=2`), at each paper task's default preset (the latency is the real "
         "one, not the preset's); `job.slowdown` 2 and 3 stand in for real time on 4 and 6 threads of this "
         "CPU. Per task and method, slowdown 1, then 2, then 3, until both runs (seeds 0 and 1) complete "
-        "(`bash studies/method/run_online.sh`, other jobs stopped while it runs).\n\n"
+        "(`bash studies/method/run_online.sh`, other jobs stopped while it runs). *Paced N ms*: the planner "
+        "started a plan at most every N ms of control time (`job.min_interval`, not the paper's: the rate of "
+        "the simulated loop at the calibrated latency) instead of continuously.\n\n"
     )
     if not paths:
         return head + "No online run is kept yet.\n"
@@ -539,7 +548,8 @@ def online(study) -> str:
 
     def order(r: dict) -> tuple:
         task = r.get("task", "").removeprefix("paper_")
-        return rank.get(task, 99), rank.get(method_name(r), 99), r.get("slowdown") or 0, r.get("seed") or 0
+        method = rank.get(method_name(r), 99), r.get("min_interval") or 0.0
+        return rank.get(task, 99), method, r.get("slowdown") or 0, r.get("seed") or 0
 
     records.sort(key=order)
     rows = [_online_row(r) for r in records]
@@ -547,7 +557,7 @@ def online(study) -> str:
         "task", "method", "seed", "slowdown", "real-time factor", "replan interval, median (ms)",
         "plan latency, median (ms)", "completed", "finished cleanly", "TTF",
     )  # fmt: skip
-    name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {method_name(r)}"  # noqa: E731
+    name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {online_method(r)}"  # noqa: E731
     table, prose, _ = by_slowdown(records, name)
     return (
         head
