@@ -134,3 +134,27 @@ def test_online_runs_name_the_slowdowns_each_method_was_tried_at() -> None:
         "b m: every run completes from slowdown 2 (real time on 4 threads of this CPU)",
         "c m: every run completes in real time on 2 threads",
     ]
+
+
+def test_the_method_studys_latency_section_sets_each_trial_beside_its_seed_at_the_calibrated_latency(
+    tmp_path,
+) -> None:
+    import json
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    spec = Study("method").spec
+    for seed, done in ((0, False), (1, True)):
+        run = tmp_path / "latency" / f"run{seed}"
+        run.mkdir(parents=True)
+        record = {"task": "paper_stapler", "seed": seed, "latency": 0.06, "replan_interval": 0.17,
+                  "completed": done, "finished_cleanly": done, "ttf": 1.0}  # fmt: skip
+        (run / "trial.json").write_text(json.dumps(record))
+    base = pd.DataFrame({"task": ["stapler"], "variant": [spec.METHOD], "seed": [0], "counted": [True],
+                         "completed": [True], "finished_cleanly": [False]})  # fmt: skip
+    text = spec.latency_section(SimpleNamespace(dir=tmp_path), base)
+    assert "| stapler | 0 | 60 | 170 | no / no | 1.00 | yes / no |" in text
+    assert "| stapler | 1 | 60 | 170 | yes / yes | 1.00 | — |" in text
+    assert "1 of 2 of these trials completed" in text
+    assert "No such trial" in spec.latency_section(SimpleNamespace(dir=tmp_path / "none"), base)

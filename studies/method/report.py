@@ -677,6 +677,54 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
     return "\n".join(out).rstrip("\n") + "\n"
 
 
+# ---------------------------------------------------------------------------------------------- latency
+
+
+def latency_section(study, df: pd.DataFrame) -> str:
+    """Simulated trials of the method at another latency than the calibrated one
+    (``latency/<run>/trial.json``, made by ``run_latency.sh``): per task and seed, completed / finished
+    cleanly at each latency, beside the same seed's trial at the calibrated latency (the study's records)."""
+    paths = sorted((study.dir / "latency").glob("*/trial.json"))
+    head = (
+        "The method's trials at the calibrated latency beside the same seeds with each plan applied sooner "
+        "(`planner.latency`), plans still started every 170 ms (`planner.replan_period=0.17`) or as often as "
+        "the latency allows (`EVERY=`), as a faster machine would apply them; "
+        "`bash studies/method/run_latency.sh`. An online run on a machine that "
+        "plans faster than the calibrated latency is such a trial, in wall-clock time.\n\n"
+    )
+    if not paths:
+        return head + "No such trial is kept yet.\n"
+    records = [json.loads(p.read_text()) for p in paths]
+    ok = counted(df)
+    rows = []
+    for r in sorted(records, key=lambda r: (r.get("task", ""), r.get("latency") or 0, r.get("seed") or 0)):
+        task = r.get("task", "").removeprefix("paper_")
+        base = cell(ok, task, METHOD) if len(ok) else ok
+        base = base[base["seed"] == r.get("seed")] if len(base) else base
+        at = (
+            "—"
+            if not len(base)
+            else f"{'yes' if base['completed'].iloc[0] else 'no'} / "
+            f"{'yes' if base['finished_cleanly'].iloc[0] else 'no'}"
+        )
+        rows.append(
+            f"| {task} | {r.get('seed')} | {1e3 * (r.get('latency') or 0):.0f} "
+            f"| {1e3 * (r.get('replan_interval') or 0):.0f} "
+            f"| {'yes' if r.get('completed') else 'no'} / {'yes' if r.get('finished_cleanly') else 'no'} "
+            f"| {Fmt.num(r.get('ttf', math.nan), 2)} | {at} |"
+        )
+    cols = (
+        "task", "seed", "latency (ms)", "a plan every (ms)", "completed / clean", "TTF",
+        f"at {1e3 * (planned_latency() or math.nan):.0f} ms: completed / clean",
+    )  # fmt: skip
+    done = sum(bool(r.get("completed")) for r in records)
+    return (
+        head
+        + pipe_table(cols, "lrrrlrl", rows)
+        + f"\n{of(done, len(records))} of these trials completed at the shorter latency.\n"
+    )
+
+
 # ---------------------------------------------------------------------------------------------- report
 
 
@@ -763,6 +811,8 @@ def report(study) -> str:
         + notes
         + "\n## Online, in wall-clock time\n\n"
         + online(study)
+        + "\n## At a shorter latency\n\n"
+        + latency_section(study, df)
         + "\n## Per seed\n\n"
         + (
             "The final object error (mm, or x 1e-3 on the doorknob) and how each trial ended (clean = "
