@@ -717,12 +717,28 @@ def latency_section(study, df: pd.DataFrame) -> str:
         "task", "seed", "latency (ms)", "a plan every (ms)", "completed / clean", "TTF",
         f"at {1e3 * (planned_latency() or math.nan):.0f} ms: completed / clean",
     )  # fmt: skip
-    done = sum(bool(r.get("completed")) for r in records)
-    return (
-        head
-        + pipe_table(cols, "lrrrlrl", rows)
-        + f"\n{of(done, len(records))} of these trials completed at the shorter latency.\n"
-    )
+    lines = []
+    conditions = sorted({(r.get("task"), r.get("latency"), r.get("replan_interval")) for r in records})
+    for task, latency, every in conditions:
+        key = (task, latency, every)
+        group = [r for r in records if (r.get("task"), r.get("latency"), r.get("replan_interval")) == key]
+        name = str(task).removeprefix("paper_")
+        base = cell(ok, name, METHOD) if len(ok) else ok
+        base = base[base["seed"].isin([r.get("seed") for r in group])] if len(base) else base
+        lines.append(
+            f"- {name}, {1e3 * (latency or 0):.0f} ms, a plan every {1e3 * (every or 0):.0f} ms: "
+            f"{of(sum(bool(r.get('completed')) for r in group), len(group))} completed, "
+            f"{sum(bool(r.get('finished_cleanly')) for r in group)} cleanly; the same seeds at "
+            f"{1e3 * (planned_latency() or math.nan):.0f} ms: "
+            + (
+                f"{of(int(base['completed'].sum()), len(base))} completed, "
+                f"{int(base['finished_cleanly'].sum())} cleanly"
+                if len(base)
+                else "not measured"
+            )
+            + "."
+        )
+    return head + pipe_table(cols, "lrrrlrl", rows) + "\n" + "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------------------------- report
