@@ -528,10 +528,15 @@ def _online_row(r: dict) -> str:
     )
 
 
+def kept(study, folder: str) -> list[dict]:
+    """The records kept beside the sweep's, one a run: ``<study>/<folder>/<run>/trial.json``, by run name."""
+    return [json.loads(p.read_text()) for p in sorted((study.dir / folder).glob("*/trial.json"))]
+
+
 def online(study) -> str:
     """``job=online`` runs (``online/<run>/trial.json``, made by ``run_online.sh``): one row a run, and per
     task and method the smallest slowdown at which every run completed on 2 threads."""
-    paths = sorted((study.dir / "online").glob("*/trial.json"))
+    records = kept(study, "online")
     head = (
         "`job=online` runs the plant in wall-clock time and the planner in a second thread on 2 planning "
         "threads here (`planner.nthread=2`), at each paper task's default preset (the latency is the real "
@@ -541,9 +546,8 @@ def online(study) -> str:
         "started a plan at most every N ms of control time (`job.min_interval`, not the paper's: the rate of "
         "the simulated loop at the calibrated latency) instead of continuously.\n\n"
     )
-    if not paths:
+    if not records:
         return head + "No online run is kept yet.\n"
-    records = [json.loads(p.read_text()) for p in paths]
     rank = {t: i for i, t in enumerate(TASK_ORDER)} | {m: i for i, m in enumerate(ORDER)}
 
     def order(r: dict) -> tuple:
@@ -684,7 +688,7 @@ def latency_section(study, df: pd.DataFrame) -> str:
     """Simulated trials of the method at another latency than the calibrated one
     (``latency/<run>/trial.json``, made by ``run_latency.sh``): per task and seed, completed / finished
     cleanly at each latency, beside the same seed's trial at the calibrated latency (the study's records)."""
-    paths = sorted((study.dir / "latency").glob("*/trial.json"))
+    records = kept(study, "latency")
     head = (
         "The method's trials at the calibrated latency beside the same seeds with each plan applied sooner "
         "(`planner.latency`), plans still started every 170 ms (`planner.replan_period=0.17`) or as often as "
@@ -692,9 +696,8 @@ def latency_section(study, df: pd.DataFrame) -> str:
         "`bash studies/method/run_latency.sh`. An online run on a machine that "
         "plans faster than the calibrated latency is such a trial, in wall-clock time.\n\n"
     )
-    if not paths:
+    if not records:
         return head + "No such trial is kept yet.\n"
-    records = [json.loads(p.read_text()) for p in paths]
     ok = counted(df)
     rows = []
     for r in sorted(records, key=lambda r: (r.get("task", ""), r.get("latency") or 0, r.get("seed") or 0)):
