@@ -699,40 +699,42 @@ def latency_section(study, df: pd.DataFrame) -> str:
     if not records:
         return head + "No such trial is kept yet.\n"
     ok = counted(df)
+    calibrated = 1e3 * (planned_latency() or math.nan)
+
+    def at_calibrated(task: str, seeds: list) -> pd.DataFrame:
+        """The method's trials at the calibrated latency on ``task`` and ``seeds``."""
+        g = cell(ok, task, METHOD) if len(ok) else ok
+        return g[g["seed"].isin(seeds)] if len(g) else g
+
+    def yes_no(completed, clean) -> str:
+        return f"{'yes' if completed else 'no'} / {'yes' if clean else 'no'}"
+
     rows = []
     for r in sorted(records, key=lambda r: (r.get("task", ""), r.get("latency") or 0, r.get("seed") or 0)):
         task = r.get("task", "").removeprefix("paper_")
-        base = cell(ok, task, METHOD) if len(ok) else ok
-        base = base[base["seed"] == r.get("seed")] if len(base) else base
-        at = (
-            "—"
-            if not len(base)
-            else f"{'yes' if base['completed'].iloc[0] else 'no'} / "
-            f"{'yes' if base['finished_cleanly'].iloc[0] else 'no'}"
-        )
+        base = at_calibrated(task, [r.get("seed")])
+        at = yes_no(base["completed"].iloc[0], base["finished_cleanly"].iloc[0]) if len(base) else "—"
         rows.append(
             f"| {task} | {r.get('seed')} | {1e3 * (r.get('latency') or 0):.0f} "
             f"| {1e3 * (r.get('replan_interval') or 0):.0f} "
-            f"| {'yes' if r.get('completed') else 'no'} / {'yes' if r.get('finished_cleanly') else 'no'} "
+            f"| {yes_no(r.get('completed'), r.get('finished_cleanly'))} "
             f"| {Fmt.num(r.get('ttf', math.nan), 2)} | {at} |"
         )
     cols = (
         "task", "seed", "latency (ms)", "a plan every (ms)", "completed / clean", "TTF",
-        f"at {1e3 * (planned_latency() or math.nan):.0f} ms: completed / clean",
+        f"at {calibrated:.0f} ms: completed / clean",
     )  # fmt: skip
     lines = []
-    conditions = sorted({(r.get("task"), r.get("latency"), r.get("replan_interval")) for r in records})
-    for task, latency, every in conditions:
-        key = (task, latency, every)
-        group = [r for r in records if (r.get("task"), r.get("latency"), r.get("replan_interval")) == key]
+    condition = lambda r: (r.get("task"), r.get("latency"), r.get("replan_interval"))  # noqa: E731
+    for task, latency, every in sorted({condition(r) for r in records}):
+        group = [r for r in records if condition(r) == (task, latency, every)]
         name = str(task).removeprefix("paper_")
-        base = cell(ok, name, METHOD) if len(ok) else ok
-        base = base[base["seed"].isin([r.get("seed") for r in group])] if len(base) else base
+        base = at_calibrated(name, [r.get("seed") for r in group])
         lines.append(
             f"- {name}, {1e3 * (latency or 0):.0f} ms, a plan every {1e3 * (every or 0):.0f} ms: "
             f"{of(sum(bool(r.get('completed')) for r in group), len(group))} completed, "
             f"{sum(bool(r.get('finished_cleanly')) for r in group)} cleanly; the same seeds at "
-            f"{1e3 * (planned_latency() or math.nan):.0f} ms: "
+            f"{calibrated:.0f} ms: "
             + (
                 f"{of(int(base['completed'].sum()), len(base))} completed, "
                 f"{int(base['finished_cleanly'].sum())} cleanly"
