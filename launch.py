@@ -52,6 +52,7 @@ LABELS = (
     "release",
     "compensation",
     "effort",
+    "place",
     "preset",
     "experiment",
     "perturbation",

@@ -82,6 +82,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "release": None,
     "compensation": None,
     "effort": None,
+    "place": None,
     "hand": None,
     "cost": None,
     "sampler": None,

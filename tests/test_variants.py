@@ -61,6 +61,8 @@ PAPER_DATA = os.environ.get("CONTACTMPC_PAPER_DATA", "")
 HAS_PAPER_DATA = bool(PAPER_DATA and Path(PAPER_DATA, "allegro").is_dir())
 VARIANTS = sorted(p.stem for p in (CONF_DIR / "variant").glob("*.yaml"))
 GROUP_MEMBERS = [(g, p.stem) for g in labels.GROUPS for p in sorted((CONF_DIR / g).glob("*.yaml"))]
+# the members that set an option of another group's object, with a member of that group to set it on
+NEEDS = {("place", "wrist"): ("release=flat",)}
 EXPERIMENTS = sorted(p.stem for p in (CONF_DIR / "experiment").glob("*.yaml"))
 # the smallest planner that plans: one plan of 2 samples over a 0.1 s horizon, single-threaded
 TINY = (
@@ -214,7 +216,8 @@ def test_every_task_and_variant_plans(task, variant, reference_files, tmp_path):
 
 @pytest.mark.parametrize(("group", "member"), GROUP_MEMBERS, ids=[f"{g}={m}" for g, m in GROUP_MEMBERS])
 def test_every_group_member_plans(group, member, reference_files, tmp_path):
-    _plans_once(["task=doorknob", f"{group}={member}"], "doorknob", reference_files, tmp_path)
+    needs = NEEDS.get((group, member), ())
+    _plans_once(["task=doorknob", f"{group}={member}", *needs], "doorknob", reference_files, tmp_path)
 
 
 def first_job(experiment: str) -> tuple[list[str], str]:
@@ -323,3 +326,29 @@ def test_compensation_is_a_group_and_names_the_method_with_it():
         )
         == "grasp_release_ahead"
     )
+
+
+def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
+    """place=wrist sets the release schedule's window to the 3 s before the last expected contact (off by
+    default: none composes the config of before); the record labels it and the method is named with it;
+    without a release schedule it is refused in one line naming the fix."""
+    from contactmpc.control.samplers import PCASplineSpace
+    from contactmpc.validate import ConfigError
+
+    off = compose_config(["task=paper_bottle"])
+    assert off.sampler.release.window is None
+    assert compose_config(["task=paper_bottle", "place=none"]) == off
+    cfg = compose_config(["task=paper_bottle", "place=wrist"], return_hydra_config=True)
+    assert list(cfg.sampler.release.window) == [-3.0, 0.0] and cfg.hydra.runtime.choices.place == "wrist"
+    rest = OmegaConf.to_container(cfg, resolve=False)
+    rest.pop("hydra")
+    rest["sampler"]["release"]["window"] = None
+    assert rest == OmegaConf.to_container(off, resolve=False)  # the window is all it changes
+    found = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS} | {
+        "variant": "grasp_release_ahead_acquire"
+    }
+    assert labels.method_name(found) == "grasp_release_ahead_acquire+place=wrist"
+    assert labels.method_labels({"variant": "grasp_release_ahead_acquire+place=wrist"})["place"] == "wrist"
+    bare = compose_config(["task=apple", "place=wrist"])
+    with pytest.raises(ConfigError, match="no release schedule is selected.*release=scheduled"):
+        PCASplineSpace(0.2, release=OmegaConf.to_container(bare.sampler.release))

@@ -24,7 +24,7 @@ import numpy as np
 from contactmpc.control.release import ReleaseSchedule, time_window
 from contactmpc.reference.bspline import UniformBSpline
 from contactmpc.reference.pca import PCABasis, PCACurves
-from contactmpc.validate import Ge, Gt, OneOf, checked
+from contactmpc.validate import ConfigError, Ge, Gt, OneOf, checked
 
 
 class SplineSpace:
@@ -63,6 +63,11 @@ class SplineSpace:
         noise_ramp: Annotated[float, Gt(0)] = 1.0,
     ) -> None:
         self.noise_ramp = float(noise_ramp)
+        if release is not None and not isinstance(release, ReleaseSchedule):  # a node with no _target_
+            raise ConfigError(
+                f"sampler.release sets {', '.join(sorted(release)) or 'nothing'} but no release schedule is "
+                "selected (place=wrist's window is one of its options): choose release=scheduled, flat, ..."
+            )
         self.release = ReleaseSchedule() if release is None else release
         self.root_window = time_window("sampler.root_window", root_window)
         self.sigma2 = float(sigma2)
