@@ -159,3 +159,25 @@ def test_the_method_studys_latency_section_sets_each_trial_beside_its_seed_at_th
     summary = "- stapler, 60 ms, a plan every 170 ms: 1 of 2 completed, 1 cleanly; the same seeds at 170 ms: "
     assert summary + "1 of 1 completed, 0 cleanly." in text
     assert "No such trial" in spec.latency_section(SimpleNamespace(dir=tmp_path / "none"), base)
+
+
+def test_the_method_study_reads_how_fast_a_slide_leaves_the_hand(tmp_path) -> None:
+    """leaving_speed: the slide's mean speed from 0.2 to 1.2 s after the last contact, against the
+    settle tolerance over the time left; None without a contact or a second after it."""
+    import numpy as np
+
+    spec = Study("method").spec
+    t = np.arange(0.0, 11.0 + 1e-9, 0.1)
+    q = np.where(t <= 1.0, 0.25, 0.25 - 0.1 * (t - 1.0))[:, None]  # let go at 1 s, then 0.1 m/s back
+    contacts = np.zeros((len(t), 3), bool)
+    contacts[t <= 1.0, 1] = True
+    np.savez(tmp_path / "a.npz", time=t, object_qpos=q, contacts=contacts)
+    speed, bound = spec.leaving_speed(tmp_path / "a.npz", settle=0.05)
+    assert speed == pytest.approx(0.1) and bound == pytest.approx(0.05 / 10.0)
+    np.savez(tmp_path / "b.npz", time=t, object_qpos=q, contacts=np.zeros_like(contacts))
+    assert spec.leaving_speed(tmp_path / "b.npz", settle=0.05) is None
+    late = contacts.copy()
+    late[t > 10.5, 0] = True  # touched until less than 1.2 s before the end
+    np.savez(tmp_path / "c.npz", time=t, object_qpos=q, contacts=late)
+    assert spec.leaving_speed(tmp_path / "c.npz", settle=0.05) is None
+    assert spec.leaving_speed(tmp_path / "missing.npz", settle=0.05) is None

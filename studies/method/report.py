@@ -617,6 +617,50 @@ def after_span_figure(path: Path, task: str, trials: pd.DataFrame, kind: str) ->
     fig.savefig(path, dpi=110)
 
 
+def leaving_speed(path: Path, settle: float) -> tuple[float, float] | None:
+    """An articulated object's speed after the hand lets go, and the most it could have kept: from the
+    trial's time series (``path``), the mean speed of its first joint (m/s on a slide) from 0.2 s to 1.2 s
+    after the last sample at which a hand link touches it, and ``settle`` (the task's tolerance on the
+    final configuration) over the time from that sample to the trial's end: any faster, and an object
+    nothing stops (a slide with no friction or damping) is outside the tolerance by the end however
+    close it was when the hand let go. ``None`` without a time series, a contact, or a second after it."""
+    if not path.is_file():
+        return None
+    series = np.load(path)
+    t, q, touching = series["time"], series["object_qpos"][:, 0], series["contacts"].any(axis=1)
+    if not touching.any():
+        return None
+    last = t[np.flatnonzero(touching)[-1]]
+    if t[-1] < last + 1.2:
+        return None
+    speed = abs(np.interp(last + 1.2, t, q) - np.interp(last + 0.2, t, q)) / 1.0
+    return float(speed), settle / float(t[-1] - last)
+
+
+def _slide_speeds(done: pd.DataFrame, task: str) -> str:
+    """For a task whose object is articulated, the speeds :func:`leaving_speed` reads, as a clause."""
+    import contactmpc.tasks as tasks
+
+    cls = next((c for c in vars(tasks).values() if getattr(c, "name", None) == f"paper_{task}"), None)
+    if cls is None or "record_path" not in done:
+        return ""
+    found = [
+        leaving_speed(Path(p).parent / "timeseries.npz", cls.SETTLE_ARTICULATION) for p in done["record_path"]
+    ]
+    found = [f for f in found if f is not None]
+    if not found:
+        return ""
+    speeds, bounds = np.array(found).T * 1e3
+    fast = int((speeds > bounds).sum())
+    return (
+        f"; the object left the hand at {median(speeds)} mm/s (median; from 0.2 to 1.2 s after the "
+        f"last contact) where it could keep at most {median(bounds, '{:.1f}')} mm/s and end within the "
+        f"{1e3 * cls.SETTLE_ARTICULATION:.0f} mm tolerance (the tolerance over the time left), faster on "
+        f"{of(fast, len(found))}: nothing stops the slide once the hand is off (no friction or damping), "
+        "so settling asks for a release that leaves the object all but still"
+    )
+
+
 def shortfall(df: pd.DataFrame, study=None) -> str:
     """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
     milestones they missed, when the failure rule fired) and those completed but not settled (the object
@@ -665,6 +709,7 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
                     if len(moved)
                     else ""
                 )
+                + (_slide_speeds(done, task) if kinds.get(task) == "articulation" else "")
             )
         out.append(head + "; " + "; ".join(parts) + ".")
         if study is not None and len(done):
