@@ -181,3 +181,35 @@ def test_the_method_study_reads_how_fast_a_slide_leaves_the_hand(tmp_path) -> No
     np.savez(tmp_path / "c.npz", time=t, object_qpos=q, contacts=late)
     assert spec.leaving_speed(tmp_path / "c.npz", settle=0.05) is None
     assert spec.leaving_speed(tmp_path / "missing.npz", settle=0.05) is None
+
+
+def test_fig3_gives_more_seeds_to_the_cells_whose_completion_differs_by_two_or_more() -> None:
+    """more_seeds_cells: under the text's reading, at seeds 0-5, a full method and an ablation whose
+    completed counts differ by 2 or more both get seeds 6-9; 1 apart, or the authors' code's, do not;
+    the trials at seeds 6-9 do not change which cells are chosen."""
+    import pandas as pd
+
+    spec = Study("fig3_paper").spec
+    rows = []
+    done = {
+        ("apple", "full"): 6,
+        ("apple", "no_contact"): 4,
+        ("apple", "joint_space"): 5,
+        ("bottle", "full"): 3,
+    }
+    done |= {("bottle", "no_contact"): 2, ("bottle", "joint_space"): 2}
+    for (task, variant), k in done.items():
+        for fid in ("paper", "authors_code"):
+            for seed in range(10 if (task, variant) == ("bottle", "joint_space") else 6):
+                completed = seed < k if fid == "paper" and seed < 6 else seed % 2 == 0
+                rows.append(dict(fidelity=fid, task=task, variant=variant, seed=seed, status="ok", ttf=1.0,
+                                 completed=completed))  # fmt: skip
+    df = pd.DataFrame(rows)
+    assert spec.more_seeds_cells(df) == [("apple", "full"), ("apple", "no_contact")]
+    df.loc[
+        (df["task"] == "bottle") & (df["variant"] == "full") & (df["fidelity"] == "paper"), "completed"
+    ] = True
+    assert spec.more_seeds_cells(df) == [
+        ("apple", "full"), ("apple", "no_contact"), ("bottle", "full"), ("bottle", "no_contact"),
+        ("bottle", "joint_space"),
+    ]  # fmt: skip
