@@ -213,3 +213,27 @@ def test_fig3_gives_more_seeds_to_the_cells_whose_completion_differs_by_two_or_m
         ("apple", "full"), ("apple", "no_contact"), ("bottle", "full"), ("bottle", "no_contact"),
         ("bottle", "joint_space"),
     ]  # fmt: skip
+
+
+def test_the_method_study_says_how_an_unsettled_free_object_ended() -> None:
+    """endings: toppled (under 45° off where the span ends, 60° or more at the end), already off where
+    the span ends (outside the task's tolerances), or outside only at the end."""
+    import math
+
+    import pandas as pd
+
+    spec = Study("method").spec
+    deg = math.radians
+    rows = [
+        dict(seed=1, object_rotation_error_span_final=deg(20), final_object_rotation_error=deg(90),
+             object_position_error_span_final=0.02),
+        dict(seed=2, object_rotation_error_span_final=deg(99), final_object_rotation_error=deg(99),
+             object_position_error_span_final=0.4),
+        dict(seed=3, object_rotation_error_span_final=deg(10), final_object_rotation_error=deg(12),
+             object_position_error_span_final=0.2),
+        dict(seed=4, object_rotation_error_span_final=deg(21), final_object_rotation_error=deg(16),
+             object_position_error_span_final=0.036),
+    ]  # fmt: skip
+    found = spec.endings(pd.DataFrame(rows), "bottle")
+    assert found == {"toppled": [1], "off": [2, 3], "outside": [4]}
+    assert spec.endings(pd.DataFrame(rows), "no_such_task") == {}

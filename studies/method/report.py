@@ -637,11 +637,61 @@ def leaving_speed(path: Path, settle: float) -> tuple[float, float] | None:
     return float(speed), settle / float(t[-1] - last)
 
 
-def _slide_speeds(done: pd.DataFrame, task: str) -> str:
-    """For a task whose object is articulated, the speeds :func:`leaving_speed` reads, as a clause."""
+def _task_class(task: str):
+    """The paper task's class (``contactmpc.tasks``), by the task's name without ``paper_``."""
     import contactmpc.tasks as tasks
 
-    cls = next((c for c in vars(tasks).values() if getattr(c, "name", None) == f"paper_{task}"), None)
+    return next((c for c in vars(tasks).values() if getattr(c, "name", None) == f"paper_{task}"), None)
+
+
+#: A free object "toppled" after the hand let go: its rotation error under TOPPLE_FROM degrees where the
+#: contact span ends and at least TOPPLE_TO degrees at the trial's end.
+TOPPLE_FROM, TOPPLE_TO = 45.0, 60.0
+
+
+def endings(done: pd.DataFrame, task: str) -> dict[str, list[int]]:
+    """The seeds of a free object's completed trials that did not settle, by how they ended (from the
+    records' errors where the contact span ends and at the end, against the task's ``SETTLE_*``
+    tolerances): ``toppled`` (see :data:`TOPPLE_FROM`), ``off`` (not toppled, and already outside the
+    tolerances where the span ends: dropped, or set down elsewhere), ``outside`` (inside them where the
+    span ends, outside at the end, not toppled)."""
+    cls = _task_class(task)
+    if cls is None or not len(done):
+        return {}
+    out: dict[str, list[int]] = {"toppled": [], "off": [], "outside": []}
+    for r in done.to_dict("records"):
+        rot0, rot1 = (math.degrees(r.get(k, math.nan)) for k in ("object_rotation_error_span_final",
+                                                                  "final_object_rotation_error"))  # fmt: skip
+        pos0 = r.get("object_position_error_span_final", math.nan)
+        if rot0 < TOPPLE_FROM and rot1 >= TOPPLE_TO:
+            out["toppled"].append(int(r["seed"]))
+        elif pos0 > cls.SETTLE_POSITION or rot0 > math.degrees(cls.SETTLE_ROTATION):
+            out["off"].append(int(r["seed"]))
+        elif not (math.isnan(pos0) or math.isnan(rot0)):
+            out["outside"].append(int(r["seed"]))
+    return {k: v for k, v in out.items() if v}
+
+
+def _endings(done: pd.DataFrame, task: str) -> str:
+    """:func:`endings` as a clause."""
+    found = endings(done, task)
+    if not found:
+        return ""
+    cls = _task_class(task)
+    words = {
+        "toppled": f"toppled after the hand let go (under {TOPPLE_FROM:.0f}° off the reference's "
+        f"orientation where the span ends, {TOPPLE_TO:.0f}° or more at the end)",
+        "off": "already outside the final tolerances where the span ends "
+        f"({1e3 * cls.SETTLE_POSITION:.0f} mm, {math.degrees(cls.SETTLE_ROTATION):.0f}°: dropped, or set "
+        "down elsewhere)",
+        "outside": "inside them where the span ends and outside at the end",
+    }
+    return "; of those, " + ", ".join(f"{words[k]} on {_seeds(v)}" for k, v in found.items())
+
+
+def _slide_speeds(done: pd.DataFrame, task: str) -> str:
+    """For a task whose object is articulated, the speeds :func:`leaving_speed` reads, as a clause."""
+    cls = _task_class(task)
     if cls is None or "record_path" not in done:
         return ""
     found = [
@@ -709,7 +759,7 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
                     if len(moved)
                     else ""
                 )
-                + (_slide_speeds(done, task) if kinds.get(task) == "articulation" else "")
+                + (_slide_speeds(done, task) if kinds.get(task) == "articulation" else _endings(done, task))
             )
         out.append(head + "; " + "; ".join(parts) + ".")
         if study is not None and len(done):
