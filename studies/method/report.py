@@ -633,7 +633,7 @@ def leaving_speed(path: Path, settle: float) -> tuple[float, float] | None:
     last = t[np.flatnonzero(touching)[-1]]
     if t[-1] < last + 1.2:
         return None
-    speed = abs(np.interp(last + 1.2, t, q) - np.interp(last + 0.2, t, q)) / 1.0
+    speed = abs(np.interp(last + 1.2, t, q) - np.interp(last + 0.2, t, q))  # over 1 s
     return float(speed), settle / float(t[-1] - last)
 
 
