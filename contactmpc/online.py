@@ -102,6 +102,13 @@ class OnlineLoop:
             from, at least (not the paper's): the planner paces itself to no more than one plan per
             ``min_interval`` (the simulated loop's rate at a latency of that much), waiting for the
             plant; 0: continuous replanning (MuJoCo MPC's loop).
+        apply_after: control seconds from the state a plan starts from to the step it takes effect, at
+            least (not the paper's): a plan that is ready sooner is held until then, so each plan acts
+            at a fixed latency, as in a simulated trial with ``planner.latency`` of that much (the
+            first plan, from the initial state, acts at once); a plan that takes longer acts when it is
+            ready. With ``planner.compensate_latency`` the planner predicts its state the larger of this
+            and :meth:`expected_latency` ahead. 0: each plan acts as soon as it is ready (MuJoCo MPC's
+            loop).
     """
 
     @checked
@@ -115,8 +122,10 @@ class OnlineLoop:
         milestone_hold: Annotated[float, Ge(0)] = 0.3,
         progress: bool = False,
         min_interval: Annotated[float, Ge(0)] = 0.0,
+        apply_after: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         self.min_interval = float(min_interval)
+        self.apply_after = float(apply_after)
         self.trial = trial
         self.slowdown = float(slowdown)
         self.max_lag = float(max_lag)
@@ -165,7 +174,7 @@ class OnlineLoop:
                     last, t, state = self._state
                 due = t + self.min_interval
                 start = time.perf_counter()
-                info = planner.plan(t, state, rng, ahead=self.expected_latency())
+                info = planner.plan(t, state, rng, ahead=max(self.apply_after, self.expected_latency()))
                 theta = planner.theta.copy()
                 theta.flags.writeable = False
                 with self._lock:
@@ -183,6 +192,22 @@ class OnlineLoop:
         if not self.plans:
             return 0.0
         return float(np.median([p.ready_wall - p.start_wall for p in self.plans[-recent:]])) / self.slowdown
+
+    def _acting(self, t: float, current: Published | None) -> Published | None:
+        """The plan the plant steps with at control time ``t``: the newest published one, or with
+        ``apply_after`` the newest whose state is at least that much older than ``t`` (``current``, the
+        plan in use, where none newer is)."""
+        published = self._plan
+
+        def due(p: Published) -> bool:
+            return p.state_time + self.apply_after <= t + 1e-9
+
+        if not self.apply_after or published is current or due(published):
+            return published
+        with self._lock:
+            plans = self.plans[current.version + 1 :]
+        ready = [p for p in plans if due(p)]
+        return ready[-1] if ready else current
 
     def _publish_state(self, seq: int, t: float, state: np.ndarray) -> None:
         with self._new_state:
@@ -242,7 +267,7 @@ class OnlineLoop:
                     wall0 = origin = next_sync = time.perf_counter()
                 if self._error is not None:
                     raise self._error
-                published = self._plan
+                published = self._acting(t, plan) if k else self._plan  # the first plan acts at once
                 if published is not plan or k - first >= len(targets):
                     if published is not plan:
                         self.swaps.append((published.version, k))
@@ -378,6 +403,7 @@ class OnlineLoop:
             "mode": "online",
             "slowdown": self.slowdown,
             "min_interval": self.min_interval,
+            "apply_after": self.apply_after,
             "real_time_factor_target": 1.0 / self.slowdown,
             "simulated_seconds": sim,
             "wall_seconds": self.wall_seconds,

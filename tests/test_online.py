@@ -189,6 +189,31 @@ def test_an_online_planner_paced_to_a_minimum_interval_plans_no_more_often(apple
     assert len(gaps[0.0]) > len(gaps[0.1]) and (gaps[0.0] < 0.1 - 1e-9).any()
 
 
+def test_an_online_plan_held_to_a_fixed_latency_acts_no_sooner(apple_reference):
+    """OnlineLoop(apply_after=0.1): every plan after the first takes effect at least 0.1 s of control
+    after the state it was planned from (a plan of a few ms is held), where without it plans act within
+    a few steps of their state; the record says so."""
+    scene = build_scene(("task=apple",))
+    reference = Reference.load(apple_reference)
+    latency = {}
+    for after in (0.0, 0.1):
+        planner = PredictiveSampling(num_samples=4, horizon=0.2, nthread=1)
+        trial = Trial(
+            scene, reference, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.45, progress=False
+        )
+        loop = OnlineLoop(trial, slowdown=4.0, min_interval=0.1, apply_after=after)
+        try:
+            loop.run()
+        finally:
+            planner.close()
+        dt = scene.plant_model.opt.timestep
+        latency[after] = np.array([k * dt - loop.plans[v].state_time for v, k in loop.swaps[1:]])
+        assert loop.summary()["apply_after"] == after
+    assert len(latency[0.1]) >= 2 and (latency[0.1] >= 0.1 - 1e-9).all()
+    assert (latency[0.1] < 0.1 + 0.05).all()  # held to its time, not later: a plan takes a few ms here
+    assert len(latency[0.0]) >= 2 and (latency[0.0] < 0.1 - 1e-9).all()
+
+
 class _InterruptingViewer:
     """Stands in for the viewer: Ctrl-C arrives in the plant's thread at control time 0.1 s."""
 

@@ -43,6 +43,7 @@ def run_online(
     fps: Annotated[float, Gt(0)] = 30.0,
     max_lag: Annotated[float, Gt(0)] = 0.1,
     min_interval: Annotated[float, Ge(0)] = 0.0,
+    apply_after: Annotated[float, Ge(0)] = 0.0,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -68,6 +69,9 @@ def run_online(
             slips (``plant_behind_seconds``).
         min_interval: control seconds between the states two plans start from, at least
             (:class:`~contactmpc.online.OnlineLoop`); 0: continuous replanning.
+        apply_after: control seconds from the state a plan starts from to the step it acts at, at
+            least: a plan ready sooner is held until then (a fixed latency, as a simulated trial's
+            ``planner.latency``); 0: each plan acts as soon as it is ready.
         config: the resolved config, stored in the record.
         labels: names of the config choices for the record.
 
@@ -92,6 +96,7 @@ def run_online(
                 milestone_hold=inputs.milestone_hold,
                 progress=inputs.progress,
                 min_interval=min_interval,
+                apply_after=apply_after,
             )
             loop0 = time.perf_counter()
             try:

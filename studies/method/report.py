@@ -510,10 +510,15 @@ def _ms(r: dict, key: str) -> str:
 
 
 def online_method(r: dict) -> str:
-    """An online run's method: :func:`method_name`, and ``paced N ms`` where the planner was paced to a plan
-    every ``job.min_interval`` of control time at most."""
-    paced = r.get("min_interval") or 0.0
-    return method_name(r) + (f", paced {1e3 * paced:.0f} ms" if paced > 0 else "")
+    """An online run's method: :func:`method_name`, ``paced N ms`` where the planner was paced to a plan
+    every ``job.min_interval`` of control time at most, and ``held to N ms`` where each plan was held to act
+    no sooner than ``job.apply_after`` after its state."""
+    paced, held = r.get("min_interval") or 0.0, r.get("apply_after") or 0.0
+    return (
+        method_name(r)
+        + (f", paced {1e3 * paced:.0f} ms" if paced > 0 else "")
+        + (f", held to {1e3 * held:.0f} ms" if held > 0 else "")
+    )
 
 
 def _online_row(r: dict) -> str:
@@ -544,7 +549,10 @@ def online(study) -> str:
         "CPU. Per task and method, slowdown 1, then 2, then 3, until both runs (seeds 0 and 1) complete "
         "(`bash studies/method/run_online.sh`, other jobs stopped while it runs). *Paced N ms*: the planner "
         "started a plan at most every N ms of control time (`job.min_interval`, not the paper's: the rate of "
-        "the simulated loop at the calibrated latency) instead of continuously.\n\n"
+        "the simulated loop at the calibrated latency) instead of continuously. *Held to N ms*: each plan "
+        "acted no sooner than N ms of control time after its state (`job.apply_after`, not the paper's: a "
+        "plan ready sooner waits, so plans act at the simulated trial's fixed latency where the machine "
+        "plans within it).\n\n"
     )
     if not records:
         return head + "No online run is kept yet.\n"
@@ -552,7 +560,7 @@ def online(study) -> str:
 
     def order(r: dict) -> tuple:
         task = r.get("task", "").removeprefix("paper_")
-        method = rank.get(method_name(r), 99), r.get("min_interval") or 0.0
+        method = rank.get(method_name(r), 99), r.get("min_interval") or 0.0, r.get("apply_after") or 0.0
         return rank.get(task, 99), method, r.get("slowdown") or 0, r.get("seed") or 0
 
     records.sort(key=order)

@@ -9,7 +9,8 @@
 # Each run's record goes to outputs/method_online/<run>/ (trial.json + timeseries.npz); its trial.json is kept
 # in studies/method/online/<run>/trial.json. A run whose record exists is skipped (resume=true). Budget: a run
 # takes its trial's control time x slowdown in wall time (39-69 s at slowdown 1). PACED=170 paces the planner
-# to a plan every 0.170 s of control time at most (job.min_interval; three digits, ms), the runs named _paced170.
+# to a plan every 0.170 s of control time at most (job.min_interval; three digits, ms), the runs named _paced170;
+# HELD=170 holds each plan to act no sooner than 0.170 s of control time after its state (job.apply_after), _held170.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 : "${CONTACTMPC_PAPER_DATA:?set CONTACTMPC_PAPER_DATA to the mjpc/tasks directory of the paper authors}"
@@ -23,11 +24,12 @@ for method in ${VARIANTS:-grasp_release_ahead grasp_release}; do
     for slowdown in ${SLOWDOWNS:-1 2 3}; do
       every=1
       for seed in 0 1; do
-        name="${task}_${method//[+=]/_}${PACED:+_paced${PACED}}_slowdown${slowdown}_seed${seed}"
+        name="${task}_${method//[+=]/_}${PACED:+_paced${PACED}}${HELD:+_held${HELD}}_slowdown${slowdown}_seed${seed}"
         dir="outputs/method_online/$name"
         # shellcheck disable=SC2086
         $PY launch.py job=online task="$task" variant="$variant" $groups planner.nthread=2 \
           job.slowdown="$slowdown" job.progress=false seed="$seed" ${PACED:+job.min_interval=0.$PACED} \
+          ${HELD:+job.apply_after=0.$HELD} \
           ${EXTRA:-} hydra.run.dir="$dir" \
           || echo "run failed: $name"
         if [[ -f "$dir/trial.json" ]]; then
