@@ -237,3 +237,27 @@ def test_the_method_study_says_how_an_unsettled_free_object_ended() -> None:
     found = spec.endings(pd.DataFrame(rows), "bottle")
     assert found == {"toppled": [1], "off": [2, 3], "outside": [4]}
     assert spec.endings(pd.DataFrame(rows), "no_such_task") == {}
+
+
+def test_the_method_study_sets_online_runs_held_to_the_calibrated_latency_beside_those_not(tmp_path) -> None:
+    """held_online: per task and slowdown, the method's online runs held to the calibrated latency
+    (apply_after) against its continuously replanning runs at the same slowdown; nothing without them."""
+    import json
+    from types import SimpleNamespace
+
+    from contactmpc.labels import method_labels
+
+    spec = Study("method").spec
+    labels = method_labels({"variant": spec.METHOD}) | {"variant": spec.METHOD}
+    latency = spec.planned_latency()
+    runs = {"free0": (0.0, 0.0, True), "free1": (0.0, 0.0, False), "held0": (latency, latency, False)}
+    runs |= {"held1": (latency, latency, True), "paced": (latency, 0.0, True)}
+    for name, (paced, held, done) in runs.items():
+        (tmp_path / "online" / name).mkdir(parents=True)
+        record = labels | {"task": "paper_stapler", "slowdown": 6.0, "min_interval": paced,
+                           "apply_after": held, "completed": done}  # fmt: skip
+        (tmp_path / "online" / name / "trial.json").write_text(json.dumps(record))
+    text = spec.held_online(SimpleNamespace(dir=tmp_path))
+    assert text.startswith("- online, stapler at slowdown 6, each plan held to act 170 ms after its state")
+    assert ": 1 of 2 completed; continuous replanning at the same slowdown: 1 of 2 completed" in text
+    assert spec.held_online(SimpleNamespace(dir=tmp_path / "none")) == ""

@@ -846,7 +846,31 @@ def latency_section(study, df: pd.DataFrame) -> str:
             )
             + "."
         )
-    return head + pipe_table(cols, "lrrrlrl", rows) + "\n" + "\n".join(lines) + "\n"
+    return head + pipe_table(cols, "lrrrlrl", rows) + "\n" + "\n".join(lines) + "\n" + held_online(study)
+
+
+def held_online(study) -> str:
+    """Online runs of the method held to the calibrated latency (``job.apply_after``, kept under
+    ``online/``) beside its runs at the same slowdown that were not: whether the simulated trial's fixed
+    latency is what the method lacks online, as a line per task and slowdown."""
+    calibrated = planned_latency()
+    runs = [r for r in kept(study, "online") if method_name(r) == METHOD]
+    held = [r for r in runs if calibrated and abs((r.get("apply_after") or 0.0) - calibrated) < 1e-9]
+    lines = []
+    for task, slowdown in sorted({(r.get("task", ""), r.get("slowdown")) for r in held}):
+        same = [r for r in runs if (r.get("task"), r.get("slowdown")) == (task, slowdown)]
+        group = [r for r in same if r in held]
+        free = [r for r in same if not (r.get("apply_after") or r.get("min_interval"))]
+        count = lambda rs: f"{of(sum(bool(r.get('completed')) for r in rs), len(rs))} completed"  # noqa: E731
+        ms = f"{1e3 * calibrated:.0f} ms"
+        lines.append(
+            f"- online, {task.removeprefix('paper_')} at slowdown {Fmt.num(slowdown, 0)}, each plan held to "
+            f"act {ms} after its state and paced to one every {ms} (`job.apply_after`, `job.min_interval`: "
+            f"the simulated trial's timing): {count(group)}; continuous replanning at the same slowdown: "
+            + (count(free) if free else "not run")
+            + " (the online table above)."
+        )
+    return "\n".join(lines) + "\n" if lines else ""
 
 
 # ---------------------------------------------------------------------------------------------- report
