@@ -135,6 +135,7 @@ def frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     full = full[(full["fidelity"] == "paper") & full["variant"].isin(BASELINES) & (chosen | paper_point)]
     if "job.start_before_contact" in full:
         full = full[full["job.start_before_contact"].isna()]
+    full = full[full["seed"].isin(script()["seeds"])]  # the screen's seeds (the Fig. 3 study has more)
     return screen, full
 
 
