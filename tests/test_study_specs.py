@@ -157,7 +157,7 @@ def test_the_method_studys_latency_section_sets_each_trial_beside_its_seed_at_th
     assert "| stapler | 0 | 60 | 170 | no / no | 1.00 | yes / no |" in text
     assert "| stapler | 1 | 60 | 170 | yes / yes | 1.00 | — |" in text
     summary = "- stapler, 60 ms, a plan every 170 ms: 1 of 2 completed, 1 cleanly; the same seeds at 170 ms: "
-    assert summary + "1 of 1 completed, 0 cleanly." in text
+    assert summary + "1 of 1 completed, 0 cleanly (completion, Barnard's exact test: p = 0.75)." in text
     assert "No such trial" in spec.latency_section(SimpleNamespace(dir=tmp_path / "none"), base)
 
 

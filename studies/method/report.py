@@ -833,14 +833,21 @@ def latency_section(study, df: pd.DataFrame) -> str:
         group = [r for r in records if condition(r) == (task, latency, every)]
         name = str(task).removeprefix("paper_")
         base = at_calibrated(name, [r.get("seed") for r in group])
+        done = sum(bool(r.get("completed")) for r in group)
+        p = (
+            completion_test(done, len(group), int(base["completed"].sum()), len(base))[0]
+            if len(base)
+            else None
+        )
         lines.append(
             f"- {name}, {1e3 * (latency or 0):.0f} ms, a plan every {1e3 * (every or 0):.0f} ms: "
-            f"{of(sum(bool(r.get('completed')) for r in group), len(group))} completed, "
+            f"{of(done, len(group))} completed, "
             f"{sum(bool(r.get('finished_cleanly')) for r in group)} cleanly; the same seeds at "
             f"{calibrated:.0f} ms: "
             + (
                 f"{of(int(base['completed'].sum()), len(base))} completed, "
-                f"{int(base['finished_cleanly'].sum())} cleanly"
+                f"{int(base['finished_cleanly'].sum())} cleanly (completion, Barnard's exact test: p = "
+                f"{Fmt.p(p)})"
                 if len(base)
                 else "not measured"
             )
