@@ -697,15 +697,40 @@ def _endings(done: pd.DataFrame, task: str) -> str:
     return "; of those, " + ", ".join(f"{words[k]} on {_seeds(v)}" for k, v in found.items())
 
 
-def _slide_speeds(done: pd.DataFrame, task: str) -> str:
+#: The speeds :func:`leaving_speed` read, by record folder: kept beside the figures, for the machines
+#: without the time series (which are not in git), as the figures drawn from them are.
+SPEEDS = "leaving_speed.csv"
+
+
+def _speeds(done: pd.DataFrame, settle: float, study=None) -> list[tuple[float, float]]:
+    """:func:`leaving_speed` of each trial of ``done``: from its time series where they are (and kept in
+    :data:`SPEEDS` when the study writes its figures), else from :data:`SPEEDS`."""
+    path = None if study is None else study.dir / "figures" / SPEEDS
+    kept = pd.read_csv(path, index_col="record") if path is not None and path.is_file() else None
+    found, read = [], {}
+    for p in done["record_path"]:
+        name = Path(p).parent.name
+        speed = leaving_speed(Path(p).parent / "timeseries.npz", settle)
+        if speed is not None:  # as the kept table holds them, so every machine reads the same
+            speed = read[name] = tuple(float(f"{v:.6g}") for v in speed)
+        elif kept is not None and name in kept.index:
+            speed = (float(kept.loc[name, "speed"]), float(kept.loc[name, "bound"]))
+        if speed is not None:
+            found.append(speed)
+    if read and study is not None and study.drawing:
+        rows = {} if kept is None else {n: (r.speed, r.bound) for n, r in kept.iterrows()}
+        rows |= read
+        table = pd.DataFrame([(n, *v) for n, v in sorted(rows.items())], columns=["record", "speed", "bound"])
+        table.to_csv(study.figure(SPEEDS), index=False, float_format="%.6g")
+    return found
+
+
+def _slide_speeds(done: pd.DataFrame, task: str, study=None) -> str:
     """For a task whose object is articulated, the speeds :func:`leaving_speed` reads, as a clause."""
     cls = _task_class(task)
     if cls is None or "record_path" not in done:
         return ""
-    found = [
-        leaving_speed(Path(p).parent / "timeseries.npz", cls.SETTLE_ARTICULATION) for p in done["record_path"]
-    ]
-    found = [f for f in found if f is not None]
+    found = _speeds(done, cls.SETTLE_ARTICULATION, study)
     if not found:
         return ""
     speeds, bounds = np.array(found).T * 1e3
@@ -767,7 +792,11 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
                     if len(moved)
                     else ""
                 )
-                + (_slide_speeds(done, task) if kinds.get(task) == "articulation" else _endings(done, task))
+                + (
+                    _slide_speeds(done, task, study)
+                    if kinds.get(task) == "articulation"
+                    else _endings(done, task)
+                )
             )
         out.append(head + "; " + "; ".join(parts) + ".")
         if study is not None and len(done):
