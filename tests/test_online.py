@@ -168,6 +168,21 @@ def test_online_compensation_plans_from_the_state_predicted_a_plans_compute_ahea
     assert (ahead[1:] >= 0.03 - 1e-9).all() and (ahead[1:] < 0.3).all()
 
 
+def _small_online_run(scene, reference, **options) -> OnlineLoop:
+    """A 0.45 s online run of a 4-sample planner at 4x slower than real time (a few ms a plan), with the
+    loop's ``options``; the finished loop."""
+    planner = PredictiveSampling(num_samples=4, horizon=0.2, nthread=1)
+    trial = Trial(
+        scene, reference, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.45, progress=False
+    )
+    loop = OnlineLoop(trial, slowdown=4.0, **options)
+    try:
+        loop.run()
+    finally:
+        planner.close()
+    return loop
+
+
 def test_an_online_planner_paced_to_a_minimum_interval_plans_no_more_often(apple_reference):
     """OnlineLoop(min_interval=0.1): the states two plans start from are at least 0.1 s of control apart,
     where the planner alone (a few ms a plan at 4x slower than real time) would replan every few ms."""
@@ -175,15 +190,7 @@ def test_an_online_planner_paced_to_a_minimum_interval_plans_no_more_often(apple
     reference = Reference.load(apple_reference)
     gaps = {}
     for interval in (0.0, 0.1):
-        planner = PredictiveSampling(num_samples=4, horizon=0.2, nthread=1)
-        trial = Trial(
-            scene, reference, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.45, progress=False
-        )
-        loop = OnlineLoop(trial, slowdown=4.0, min_interval=interval)
-        try:
-            loop.run()
-        finally:
-            planner.close()
+        loop = _small_online_run(scene, reference, min_interval=interval)
         gaps[interval] = np.diff([p.state_time for p in loop.plans])
     assert len(gaps[0.1]) >= 2 and (gaps[0.1] >= 0.1 - 1e-9).all()
     assert len(gaps[0.0]) > len(gaps[0.1]) and (gaps[0.0] < 0.1 - 1e-9).any()
@@ -197,15 +204,7 @@ def test_an_online_plan_held_to_a_fixed_latency_acts_no_sooner(apple_reference):
     reference = Reference.load(apple_reference)
     latency = {}
     for after in (0.0, 0.1):
-        planner = PredictiveSampling(num_samples=4, horizon=0.2, nthread=1)
-        trial = Trial(
-            scene, reference, PCASplineSpace(0.2), TrackingCost(), planner, 0, duration=0.45, progress=False
-        )
-        loop = OnlineLoop(trial, slowdown=4.0, min_interval=0.1, apply_after=after)
-        try:
-            loop.run()
-        finally:
-            planner.close()
+        loop = _small_online_run(scene, reference, min_interval=0.1, apply_after=after)
         dt = scene.plant_model.opt.timestep
         latency[after] = np.array([k * dt - loop.plans[v].state_time for v, k in loop.swaps[1:]])
         assert loop.summary()["apply_after"] == after

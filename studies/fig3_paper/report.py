@@ -13,6 +13,7 @@ from scipy.stats import fisher_exact
 from analysis import paper_fig3 as fig3
 from analysis.aggregate import TASK_ORDER, ok_trials, ordered
 from analysis.inference import completion_test, smallest_u_p, wilson
+from analysis.prose import seeds
 from analysis.study import REPO, planned, sweep_params
 from contactmpc.metrics import time_to_failure
 
@@ -122,13 +123,17 @@ def _status(df: pd.DataFrame, experiment: str, f) -> str:
     )
 
 
+def _planned_seeds() -> list[int]:
+    """The seeds ``experiment=fig3_paper`` sweeps (0-5)."""
+    return [int(x) for x in sweep_params("fig3_paper").get("seed", range(6))]
+
+
 def more_seeds_cells(df: pd.DataFrame) -> list[tuple[str, str]]:
     """The cells ``(task, variant)`` of the text's reading (``fidelity=paper``) that get seeds 6-9: those
     whose completion at the planned seeds differs by :data:`MORE_SEEDS_DIFFERENCE` trials or more from
     the full method's (for an ablation) or from an ablation's (for the full method), the pairs the tests
     compare; in the tables' order."""
-    seeds = [int(x) for x in sweep_params("fig3_paper").get("seed", range(6))]
-    cells = _cells(df[df["seed"].isin(seeds)], "paper")
+    cells = _cells(df[df["seed"].isin(_planned_seeds())], "paper")
     out = set()
     for task in {t for t, _ in cells}:
         full = _count(cells.get((task, "full")))
@@ -162,13 +167,15 @@ def _more_seeds(df: pd.DataFrame) -> str:
         + ", ".join(f"{t} `{v}` {have[(t, v)]}" for t, v in cells)
         + f'); resume with `CELLS="{arg}" bash studies/fig3_paper/run_more_seeds.sh`'
     )
+    planned = seeds(_planned_seeds())
     return (
-        f"Under the text's reading, the cells whose completion at seeds 0-5 differs by "
+        f"Under the text's reading, the cells whose completion at seeds {planned} differs by "
         f"{MORE_SEEDS_DIFFERENCE} or more from the cell the tests compare them with (the full method "
-        f"against an ablation) get seeds {MORE_SEEDS[0]}-{MORE_SEEDS[-1]} too, so the tests of those tasks "
-        f"run at up to {6 + len(MORE_SEEDS)} trials a cell (`studies/fig3_paper/run_more_seeds.sh`, seeds "
-        f"varying slowest): {listed}. {len(cells) * len(MORE_SEEDS)} trials: {status}. The tables, tests "
-        "and findings below count every kept seed; the authors' code's reading stays at seeds 0-5."
+        f"against an ablation) get seeds {seeds(MORE_SEEDS)} too, so the tests of those tasks "
+        f"run at up to {len(_planned_seeds()) + len(MORE_SEEDS)} trials a cell "
+        "(`studies/fig3_paper/run_more_seeds.sh`, seeds "
+        f"varying slowest): {listed}. {planned_more} trials: {status}. The tables, tests "
+        f"and findings below count every kept seed; the authors' code's reading stays at seeds {planned}."
     )
 
 
