@@ -31,6 +31,17 @@ LEVERS=(
   "variant=full compensation=predict"
   "variant=wrist_clearance compensation=predict"
 )
+# SET=method: the method (grasp_release_ahead_acquire at its own preset, paper_32samples_calibrated) at the
+# calibrated 170 ms latency and with each plan applied after 60 ms (plans still every 170 ms), on the stapler:
+# does the screen show the full trials' sensitivity to timing, and what does the method do on seeds it was not
+# chosen on (SEEDS="10 11 ...")?
+elif [[ ${SET:-full} == method ]]; then
+LEVERS=(
+  "variant=grasp_release_ahead_acquire"
+  "variant=grasp_release_ahead_acquire planner.latency=0.06 planner.replan_period=0.17"
+)
+COMMON=("${COMMON[@]/preset=paper_32samples/preset=paper_32samples_calibrated}")
+COMMON=("${COMMON[@]/task=paper_stapler,paper_bottle/task=${TASKS:-paper_stapler}}")
 else
 LEVERS=(
   "variant=full"
