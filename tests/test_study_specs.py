@@ -261,3 +261,33 @@ def test_the_method_study_sets_online_runs_held_to_the_calibrated_latency_beside
     assert text.startswith("- online, stapler at slowdown 6, each plan held to act 170 ms after its state")
     assert ": 1 of 2 completed; continuous replanning at the same slowdown: 1 of 2 completed" in text
     assert spec.held_online(SimpleNamespace(dir=tmp_path / "none")) == ""
+
+
+def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_trials() -> None:
+    """method_section: per latency and seed group (chosen on / not), the screen's lifted count beside the
+    full trials' completed count, and the two latencies tested against each other on every screen seed."""
+    import pandas as pd
+
+    spec = Study("method_screen").spec
+    assert spec.script()["method"][0] == [f"variant={spec.METHOD}"]  # the method is not a lever
+    assert all(f"variant={spec.METHOD}" not in lever for lever in spec.script()["levers"])
+    rows = []
+    for seed in range(12):
+        for lat in (170, 60):
+            lifted = seed % 2 == 0 or lat == 170
+            rows.append({"where": "screen", "latency_ms": lat, "seed": seed, "lifted": lifted,
+                         "completed": lifted, "status": "ok", "ttf": 1.0, "cpu_seconds": 100.0})  # fmt: skip
+    rows += [{"where": "full", "latency_ms": 60, "seed": s, "lifted": s < 6, "completed": s < 6,
+              "status": "ok", "ttf": 1.0, "cpu_seconds": 300.0} for s in range(10)]  # fmt: skip
+    df = pd.DataFrame(rows)
+    df["seeds"] = ["chosen on" if s in spec.CHOSEN_ON else "not chosen on" for s in df["seed"]]
+    text = spec.method_section(df)
+    assert "| screen | 60 | not chosen on | 2 | 1/2 | 1/2 | 1.00 | 100 | 10 and 11 |" in text
+    assert (
+        "the screen at 170 ms lifted 10 of 10; at 60 ms lifted 5 of 10 (full trials: completed 6 of 10)"
+        in text
+    )
+    assert (
+        "every screen seed, 170 against 60 ms: lifted 12 of 12 against 6 of 12, a difference of +50" in text
+    )
+    assert spec.method_section(df[df["where"] == "full"]) == ""  # no screen trial yet: no section

@@ -12,13 +12,17 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from analysis.inference import completion_test, newcombe
 from analysis.prose import median, of, ratio, seeds, span
 from analysis.study import REPO
 from analysis.summarize import Fmt, Stat, markdown, summarize
 from contactmpc.labels import method_labels, method_name
 
 TITLE = "The cheap screen of the method levers (issue 33)"
-EXPERIMENTS = ["bash studies/method_screen/run_screen.sh"]
+EXPERIMENTS = [
+    "bash studies/method_screen/run_screen.sh",
+    'SET=method SEEDS="$(seq -s " " 0 19)" bash studies/method_screen/run_screen.sh',
+]
 #: The full trials of the same variants: the full method at preset=paper_32samples (fig3_paper) and the
 #: stapler's wrist_clearance at 32 samples (stapler/records/stapler_clearance).
 #: The clearance variant at the paper point (128 samples): the operating_point study's
@@ -26,6 +30,11 @@ EXPERIMENTS = ["bash studies/method_screen/run_screen.sh"]
 RECORDS = ["fig3_paper", "stapler", "operating_point"]
 
 HERE = Path(__file__).resolve().parent
+#: The method (the method study's), screened at two latencies (``SET=method``): its own rows, not a lever's.
+METHOD = "grasp_release_ahead_acquire"
+#: The method study's seeds (0-9), on which the method's groups were chosen; the screen's seeds from 10 on
+#: were not.
+CHOSEN_ON = range(10)
 SCRIPT = HERE / "run_screen.sh"
 TASKS = ("paper_stapler", "paper_bottle")
 BASELINES = ("full", "wrist_clearance")
@@ -91,14 +100,18 @@ def script() -> dict:
     common = re.search(r"COMMON=\((.*?)\)", text, re.S)[1]
     seeds_text = re.search(r"SEEDS:-([0-9 ]+)\}", text)[1]
     levers: list[list[str]] = []  # every LEVERS set (SET=full, clearance, compensation), full's first
+    method: list[list[str]] = []  # SET=method: the method itself, not a lever
     blocks = re.findall(r"LEVERS=\((.*?)\n\)", text, re.S)
     for block in sorted(blocks, key=lambda b: b.strip().splitlines()[0].strip().strip('"') != "variant=full"):
         for line in block.strip().splitlines():
-            if (overrides := shlex.split(line.strip().strip('"'))) not in levers:
-                levers.append(overrides)
+            overrides = shlex.split(line.strip().strip('"'))
+            into = method if f"variant={METHOD}" in overrides else levers
+            if overrides not in into:
+                into.append(overrides)
     return {
         "common": dict(o.split("=", 1) for o in shlex.split(common) if "=" in o),
         "levers": levers,
+        "method": method,
         "seeds": [int(s) for s in seeds_text.split()],
     }
 
@@ -110,6 +123,7 @@ def frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     if not len(df):
         return df, df
     df = df[df["task"].isin(TASKS)].copy()
+    df = df[np.array([method_name(r) != METHOD for r in df.to_dict("records")], bool)]
     if "planner.num_samples" not in df and "num_samples" in df:
         df["planner.num_samples"] = df["num_samples"]
     for key, _, _ in LEVER_KEYS:
@@ -329,6 +343,95 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     return "\n".join(out) + "\n"
 
 
+def method_frames(study) -> pd.DataFrame:
+    """The method's stapler trials at plans every 170 ms (the calibrated loop): its screen trials
+    (``SET=method``) and the method study's full trials (its records and its ``latency/`` runs), with
+    ``where`` (``screen`` / ``full``), ``latency_ms`` and ``seeds`` (the method study's seeds, on which
+    it was chosen, or not)."""
+    df = study.records("method", "method/latency")
+    if not len(df):
+        return df
+    ours = np.array([method_name(r) == METHOD for r in df.to_dict("records")], bool)
+    df = df[(df["task"] == "paper_stapler").to_numpy() & ours]
+    df = df[(df["replan_interval"] - 0.17).abs() < 1e-6].copy()  # not the runs planning every 60 ms
+    own = str(study.dir / "records")
+    df["where"] = np.where(df["record_path"].astype(str).str.startswith(own), "screen", "full")
+    df = df[(df["where"] == "screen") | df["job.start_before_contact"].isna()]
+    df["latency_ms"] = (1e3 * df["latency"]).round().astype(int)
+    df["seeds"] = np.where(df["seed"].isin(CHOSEN_ON), "chosen on", "not chosen on")
+    df["lifted"] = df["milestone_lifted"].astype(object)
+    return df
+
+
+def method_section(df: pd.DataFrame) -> str:
+    """The method in the screen at the calibrated latency and with plans applied after 60 ms, against
+    its full trials, on the seeds it was chosen on and on others."""
+    if not len(df) or not (df["where"] == "screen").any():
+        return ""
+    stats = [
+        Stat("seed", "n", name="trials"),
+        Stat("lifted", "count", name="lifted", where=counted),
+        Stat("completed", "count", name="completed", where=counted),
+        Stat("ttf", "median", name="TTF", digits=2, where=counted),
+        Stat("cpu_seconds", "median", name="CPU-s", digits=0, where=counted),
+    ]
+    lats = sorted(set(df.loc[df["where"] == "screen", "latency_ms"]), reverse=True)
+    t = summarize(
+        df,
+        by=["where", "latency_ms", "seeds"],
+        stats=stats,
+        order={
+            "where": ["screen", "full"],
+            "latency_ms": sorted(set(df["latency_ms"]), reverse=True),
+            "seeds": ["chosen on", "not chosen on"],
+        },
+    )
+    t["seed range"] = [
+        seeds(df[(df["where"] == w) & (df["latency_ms"] == lat) & (df["seeds"] == c)]["seed"])
+        for w, lat, c in zip(t["where"], t["latency_ms"], t["seeds"], strict=True)
+    ]
+    t = t.rename(columns={"where": "trial", "latency_ms": "latency (ms)", "seeds": "seeds"})
+
+    def count(where: str, lat: int, chosen: str | None, column: str) -> tuple[int, int]:
+        g = df[(df["where"] == where) & (df["latency_ms"] == lat)]
+        return _k(g if chosen is None else g[g["seeds"] == chosen], column)
+
+    out = []
+    for chosen in ("chosen on", "not chosen on"):
+        parts = []
+        for lat in lats:
+            sk, sn = count("screen", lat, chosen, "lifted")
+            fk, fn = count("full", lat, chosen, "completed")
+            if sn:
+                full = f" (full trials: completed {of(fk, fn)})" if fn else ""
+                parts.append(f"at {lat} ms lifted {of(sk, sn)}{full}")
+        if parts:
+            out.append(f"- seeds the method was {chosen}: the screen " + "; ".join(parts) + ".")
+    if len(lats) == 2:
+        (k1, n1), (k2, n2) = (count("screen", lat, None, "lifted") for lat in lats)
+        p, floor = completion_test(k1, n1, k2, n2)
+        d, lo, hi = newcombe(k1, n1, k2, n2)
+        out.append(
+            f"- every screen seed, {lats[0]} against {lats[1]} ms: lifted {of(k1, n1)} against {of(k2, n2)}, "
+            f"a difference of {100 * d:+.0f} points (95 % interval {100 * lo:+.0f} to {100 * hi:+.0f}; "
+            f"Barnard's exact two-sided p = {Fmt.p(p)}, the smallest these counts allow {Fmt.p(floor)})."
+        )
+    return (
+        "## The method in the screen: timing, and seeds it was not chosen on\n\n"
+        f"`SET=method`: the method (`{METHOD}` at its own preset, `paper_32samples_calibrated`) on the "
+        "stapler's screen with each plan applied 170 ms after its state (the calibrated latency) and after "
+        "60 ms (`planner.latency=0.06`; plans still every 170 ms), beside its full trials at the same timing "
+        "(the method study's records and its `latency/` runs). The method's groups were chosen on seeds "
+        f"{seeds(CHOSEN_ON)}; the screen's seeds from {max(CHOSEN_ON) + 1} on were not used to choose "
+        "anything. `lifted`: the record's `milestone_lifted` (in the screen the window ends 4 s after the "
+        "first contact, so `completed` there is the stapler lifted and turned, not the set-down).\n\n"
+        + markdown(t)
+        + "\n"
+        + "\n".join(out)
+        + "\n"
+    )
+
+
 def report(study) -> str:
     spec = script()
     common = spec["common"]
@@ -394,4 +497,5 @@ def report(study) -> str:
         + "\n## What the records show\n\n"
         + verdict(screen, full)
         + findings(screen, full)
+        + (f"\n{section}" if (section := method_section(method_frames(study))) else "")
     )
