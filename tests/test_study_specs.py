@@ -291,3 +291,25 @@ def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_tria
         "every screen seed, 170 against 60 ms: lifted 12 of 12 against 6 of 12, a difference of +50" in text
     )
     assert spec.method_section(df[df["where"] == "full"]) == ""  # no screen trial yet: no section
+
+
+def test_the_method_study_reads_the_replayed_releases_over_the_replays_near_their_trials() -> None:
+    """release_replays: a seed whose own release let go before the span's end in replay is left out; per
+    release, how many let go, their median speed and how many stayed under the bound."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    rows = [(0, "recorded", 0.2, 0.2), (1, "recorded", 0.3, 0.1), (2, "recorded", -0.1, 0.05),
+            (0, "slow", 1.0, 0.002), (1, "slow", 1.0, 0.02), (2, "slow", 1.0, 0.001),
+            (0, "grip held", float("nan"), float("nan")), (1, "grip held", 2.0, 0.001),
+            (2, "grip held", float("nan"), float("nan"))]  # fmt: skip
+    table = pd.DataFrame(rows, columns=["seed", "release", "let_go", "speed"]).assign(bound=0.003)
+    text = spec.release_replays(table)
+    assert "the 2 trials whose replayed own release let go after the span's end" in text
+    assert "*recorded*: 2 of 2 let go, at 150 mm/s (median; 100-200), under the bound on 0 of 2" in text
+    assert "*grip held*: 1 of 2 let go (the hand still on the knob on 1), at 1 mm/s" in text
+    assert (
+        "The slowest, *slow*, leaves the knob 14 times slower than the trial's own release and under " in text
+    )
+    assert text.endswith("under the bound on 1 of 2.")
+    assert spec.release_replays(table.iloc[:0]) == ""

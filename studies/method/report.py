@@ -18,7 +18,7 @@ from analysis.aggregate import COUNTED_STATUSES, TASK_ORDER, ordered
 from analysis.inference import completion_test, newcombe
 from analysis.online import by_slowdown
 from analysis.operating_point import points, readings
-from analysis.prose import glance_row, median, of, seeds
+from analysis.prose import glance_row, median, of, seeds, span
 from analysis.study import REPO, sweep_params
 from analysis.summarize import Fmt, Stat, markdown, pipe_table, summarize
 from analysis.timeline import timeline
@@ -744,6 +744,65 @@ def _slide_speeds(done: pd.DataFrame, task: str, study=None) -> str:
     )
 
 
+#: The doorknob's releases replayed from the method's trials (``release_replay.py`` writes it).
+REPLAYS = "release_replay.csv"
+
+
+def release_replays(table: pd.DataFrame) -> str:
+    """What the replayed releases (:data:`REPLAYS`'s rows: ``seed``, ``release``, ``let_go``, ``speed``,
+    ``bound``) did, as a paragraph: per release, the knob's speed after the hand let go (medians, ranges)
+    and on how many replays it stayed under the bound, over the replays of the trials whose recorded
+    release let go after the span's end (where a replay let go sooner, it is not near its trial)."""
+    if not len(table):
+        return ""
+    rec = table[table["release"] == "recorded"]
+    faithful = set(rec.loc[rec["let_go"] >= 0, "seed"])
+    t = table[table["seed"].isin(faithful)]
+    parts, medians = [], {}
+    for name, g in t.groupby("release", sort=False):
+        off = g[g["let_go"].notna()]
+        v, b = 1e3 * off["speed"], 1e3 * off["bound"]
+        held = len(g) - len(off)
+        where = f"{of(len(off), len(g))} let go" + (
+            f" (the hand still on the knob on {held})" if held else ""
+        )
+        if len(off):
+            under = of(int((v <= b).sum()), len(off))
+            medians[name] = (float(np.median(v)), int((v <= b).sum()), len(off))
+            where += f", at {median(v)} mm/s (median; {span(v)}), under the bound on {under}"
+        parts.append(f"*{name}*: {where}")
+    return (
+        f"  Replayed from each trial's state {REPLAY_BEFORE} s before the span ends, each release open-loop "
+        "(`python studies/method/release_replay.py`; velocities zeroed, so a replay is near its trial, not "
+        f"it; the {len(faithful)} trials whose replayed own release let go after the span's end): "
+        + "; ".join(parts)
+        + "."
+        + _slowest(medians)
+    )
+
+
+def _slowest(medians: dict[str, tuple[float, int, int]]) -> str:
+    """The release (other than the trial's own and the grip held) that left the knob slowest, against
+    the trial's own, as a sentence."""
+    tried = {k: v for k, v in medians.items() if k not in ("recorded", "grip held")}
+    if "recorded" not in medians or not tried:
+        return ""
+    name, (v, under, n) = min(tried.items(), key=lambda kv: kv[1][0])
+    return (
+        f" The slowest, *{name}*, leaves the knob {medians['recorded'][0] / v:.0f} times slower than the "
+        f"trial's own release and under the bound on {of(under, n)}"
+        + (": none of the open-loop releases tried would settle the knob." if 2 * under < n else ".")
+    )
+
+
+REPLAY_BEFORE = 0.5
+
+
+def _replays(study) -> str:
+    path = None if study is None else study.dir / "figures" / REPLAYS
+    return release_replays(pd.read_csv(path)) if path is not None and path.is_file() else ""
+
+
 def shortfall(df: pd.DataFrame, study=None) -> str:
     """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
     milestones they missed, when the failure rule fired) and those completed but not settled (the object
@@ -810,6 +869,8 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
             )
             if link:
                 out += ["", f"  {link}", ""]
+        if kinds.get(task) == "articulation" and len(done) and (replayed := _replays(study)):
+            out += [replayed, ""]
     return "\n".join(out).rstrip("\n") + "\n"
 
 
