@@ -313,3 +313,10 @@ def test_the_method_study_reads_the_replayed_releases_over_the_replays_near_thei
     )
     assert text.endswith("under the bound on 1 of 2.")
     assert spec.release_replays(table.iloc[:0]) == ""
+
+
+def test_fig3_counts_the_cells_a_sweep_plans_not_those_it_has_reached() -> None:
+    """A partial sweep holds fewer cells than it plans: its status says "2 of 6 cells", not "every cell"."""
+    spec = Study("fig3_paper").spec
+    assert spec._cells_planned("fig3_paper") == 12  # 4 tasks x 3 variants
+    assert spec._cells_planned("fig3_paper_hard") == 6  # 2 challenges x 3 variants

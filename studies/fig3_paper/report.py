@@ -106,7 +106,7 @@ def _status(df: pd.DataFrame, experiment: str, f) -> str:
     df = df.drop(extra.index)
     parts = []
     counts = df.groupby(["fidelity", "task", "variant"]).size()
-    cells_per_reading = len(df["task"].unique()) * len(df["variant"].unique())
+    cells_per_reading = _cells_planned(experiment) or len(df["task"].unique()) * len(df["variant"].unique())
     for fid in fig3.FIDELITY_ORDER:
         if fid not in counts.index.get_level_values(0):
             parts.append(f"`{fid}`: none yet")
@@ -121,6 +121,14 @@ def _status(df: pd.DataFrame, experiment: str, f) -> str:
         f"**`{experiment}`: {len(df)}{of} trials** ({'; '.join(parts)}; {cpu:.2f} CPU-hours measured{more})."
         f"{left}"
     )
+
+
+def _cells_planned(experiment: str) -> int | None:
+    """How many cells (task or challenge x variant) a reading of ``experiment`` sweeps; ``None`` where
+    its sweep does not say."""
+    params = sweep_params(experiment)
+    sizes = [len(v) for k, v in params.items() if k not in ("seed", "fidelity")]
+    return int(np.prod(sizes)) if sizes else None
 
 
 def _planned_seeds() -> list[int]:
@@ -303,21 +311,25 @@ def _findings(df: pd.DataFrame, ttf: pd.DataFrame, done: pd.DataFrame, fid: str,
         )
         per_task.append(f"the {t}: full {k}/{m} completed ({c} finished cleanly), {abl}")
     lines.append("Completion: " + "; ".join(per_task) + ".")
-    better, not_better = [], []
+    better, not_better, unpaired = [], [], []
     for t in tasks:
         k, m = _count(cells.get((t, "full")))
         rates = [_count(cells.get((t, v))) for v in ABLATIONS if (t, v) in cells]
-        if m and rates and all(km[1] and k / m > km[0] / km[1] for km in rates):
+        if not m or len(rates) < len(ABLATIONS) or not all(n for _, n in rates):
+            unpaired.append(t)  # the full method or an ablation without trials yet
+        elif all(k / m > km[0] / km[1] for km in rates):
             better.append(t)
-        elif m:
+        else:
             not_better.append(t)
     if better:
         lines.append(
             f"The full method completes more often than both ablations on {_the(better, f)}"
             + (f", not on {_the(not_better, f)}." if not_better else ".")
         )
-    else:
+    elif not_better:
         lines.append("On no task does the full method complete more often than both ablations.")
+    if unpaired:
+        lines.append(f"Not compared yet on {_the(unpaired, f)}: a cell without trials.")
     tt = ttf[(ttf["condition"] == fid) & ttf["p_holm"].notna()]
     dd = done[done["fidelity"] == fid]
     m_tests = int(tt["p"].notna().sum())
