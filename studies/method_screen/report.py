@@ -368,18 +368,11 @@ def method_section(df: pd.DataFrame) -> str:
     its full trials, on the seeds it was chosen on and on others."""
     if not len(df) or not (df["where"] == "screen").any():
         return ""
-    stats = [
-        Stat("seed", "n", name="trials"),
-        Stat("lifted", "count", name="lifted", where=counted),
-        Stat("completed", "count", name="completed", where=counted),
-        Stat("ttf", "median", name="TTF", digits=2, where=counted),
-        Stat("cpu_seconds", "median", name="CPU-s", digits=0, where=counted),
-    ]
     lats = sorted(set(df.loc[df["where"] == "screen", "latency_ms"]), reverse=True)
     t = summarize(
         df,
         by=["where", "latency_ms", "seeds"],
-        stats=stats,
+        stats=STATS,
         order={
             "where": ["screen", "full"],
             "latency_ms": sorted(set(df["latency_ms"]), reverse=True),
