@@ -284,12 +284,12 @@ def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_tria
     text = spec.method_section(df)
     assert "| screen | 60 | not chosen on | 2 | 1/2 | 1/2 | 1.00 | 100 | 10 and 11 |" in text
     assert (
-        "the screen at 170 ms lifted 10 of 10; at 60 ms lifted 5 of 10 (full trials: completed 6 of 10)"
-        in text
+        "the screen at 170 ms lifted 10 of 10; at 60 ms lifted 5 of 10 (full trials: lifted 6 of 10)" in text
     )
     assert (
         "every screen seed, 170 against 60 ms: lifted 12 of 12 against 6 of 12, a difference of +50" in text
     )
+    assert "- at 60 ms, the seeds it was chosen on against the others: lifted 5 of 10 against 1 of 2" in text
     assert spec.method_section(df[df["where"] == "full"]) == ""  # no screen trial yet: no section
 
 
