@@ -145,17 +145,21 @@ def test_the_method_studys_latency_section_sets_each_trial_beside_its_seed_at_th
     import pandas as pd
 
     spec = Study("method").spec
-    for seed, done in ((0, False), (1, True)):
-        run = tmp_path / "latency" / f"run{seed}"
+    for seed, done, reset in ((0, False, None), (1, True, None), (0, True, 3.0)):
+        run = tmp_path / "latency" / f"run{seed}{reset}"
         run.mkdir(parents=True)
         record = {"task": "paper_stapler", "seed": seed, "latency": 0.06, "replan_interval": 0.17,
-                  "completed": done, "finished_cleanly": done, "ttf": 1.0}  # fmt: skip
+                  "completed": done, "finished_cleanly": done, "ttf": 1.0,
+                  "config": {"planner": {"approach_reset": reset}}}  # fmt: skip
         (run / "trial.json").write_text(json.dumps(record))
     base = pd.DataFrame({"task": ["stapler"], "variant": [spec.METHOD], "seed": [0], "counted": [True],
                          "completed": [True], "finished_cleanly": [False]})  # fmt: skip
     text = spec.latency_section(SimpleNamespace(dir=tmp_path), base)
-    assert "| stapler | 0 | 60 | 170 | no / no | 1.00 | yes / no |" in text
-    assert "| stapler | 1 | 60 | 170 | yes / yes | 1.00 | — |" in text
+    assert "| stapler | 0 | 60 | 170 | — | no / no | 1.00 | yes / no |" in text
+    assert "| stapler | 1 | 60 | 170 | — | yes / yes | 1.00 | — |" in text
+    assert "| stapler | 0 | 60 | 170 | 3 | yes / yes | 1.00 | yes / no |" in text
+    lever = "- stapler, 60 ms, a plan every 170 ms, the approach reset 3 s before the first contact "
+    assert lever + "(`planner.approach_reset`): 1 of 1 completed, 1 cleanly; the same seeds at 170 ms" in text
     summary = "- stapler, 60 ms, a plan every 170 ms: 1 of 2 completed, 1 cleanly; the same seeds at 170 ms: "
     assert summary + "1 of 1 completed, 0 cleanly (completion, Barnard's exact test: p = 0.75)." in text
     assert "No such trial" in spec.latency_section(SimpleNamespace(dir=tmp_path / "none"), base)

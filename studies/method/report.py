@@ -887,7 +887,10 @@ def latency_section(study, df: pd.DataFrame) -> str:
         "(`planner.latency`), plans still started every 170 ms (`planner.replan_period=0.17`) or as often as "
         "the latency allows (`EVERY=`), as a faster machine would apply them; "
         "`bash studies/method/run_latency.sh`. An online run on a machine that "
-        "plans faster than the calibrated latency is such a trial, in wall-clock time.\n\n"
+        "plans faster than the calibrated latency is such a trial, in wall-clock time. *Approach reset*: "
+        "the lever `planner.approach_reset` on top of the method (`EXTRA=`): that many seconds before the "
+        "first expected contact the committed control points go back to the reference's own, so the hand "
+        "meets the object as a screen trial starts it.\n\n"
     )
     if not records:
         return head + "No such trial is kept yet.\n"
@@ -902,25 +905,31 @@ def latency_section(study, df: pd.DataFrame) -> str:
     def yes_no(completed, clean) -> str:
         return f"{'yes' if completed else 'no'} / {'yes' if clean else 'no'}"
 
+    def approach(r: dict) -> float | None:
+        """The run's ``planner.approach_reset`` (a lever on top of the method; ``None``: off)."""
+        return ((r.get("config") or {}).get("planner") or {}).get("approach_reset")
+
     rows = []
-    for r in sorted(records, key=lambda r: (r.get("task", ""), r.get("latency") or 0, r.get("seed") or 0)):
+    order = lambda r: (r.get("task", ""), r.get("latency") or 0, approach(r) or 0, r.get("seed") or 0)  # noqa: E731
+    for r in sorted(records, key=order):
         task = r.get("task", "").removeprefix("paper_")
         base = at_calibrated(task, [r.get("seed")])
         at = yes_no(base["completed"].iloc[0], base["finished_cleanly"].iloc[0]) if len(base) else "—"
         rows.append(
             f"| {task} | {r.get('seed')} | {1e3 * (r.get('latency') or 0):.0f} "
             f"| {1e3 * (r.get('replan_interval') or 0):.0f} "
+            f"| {'—' if approach(r) is None else f'{approach(r):g}'} "
             f"| {yes_no(r.get('completed'), r.get('finished_cleanly'))} "
             f"| {Fmt.num(r.get('ttf', math.nan), 2)} | {at} |"
         )
     cols = (
-        "task", "seed", "latency (ms)", "a plan every (ms)", "completed / clean", "TTF",
+        "task", "seed", "latency (ms)", "a plan every (ms)", "approach reset (s)", "completed / clean", "TTF",
         f"at {calibrated:.0f} ms: completed / clean",
     )  # fmt: skip
     lines = []
-    condition = lambda r: (r.get("task"), r.get("latency"), r.get("replan_interval"))  # noqa: E731
-    for task, latency, every in sorted({condition(r) for r in records}):
-        group = [r for r in records if condition(r) == (task, latency, every)]
+    condition = lambda r: (r.get("task"), r.get("latency"), r.get("replan_interval"), approach(r) or 0.0)  # noqa: E731
+    for task, latency, every, reset in sorted({condition(r) for r in records}):
+        group = [r for r in records if condition(r) == (task, latency, every, reset)]
         name = str(task).removeprefix("paper_")
         base = at_calibrated(name, [r.get("seed") for r in group])
         done = sum(bool(r.get("completed")) for r in group)
@@ -930,7 +939,13 @@ def latency_section(study, df: pd.DataFrame) -> str:
             else None
         )
         lines.append(
-            f"- {name}, {1e3 * (latency or 0):.0f} ms, a plan every {1e3 * (every or 0):.0f} ms: "
+            f"- {name}, {1e3 * (latency or 0):.0f} ms, a plan every {1e3 * (every or 0):.0f} ms"
+            + (
+                f", the approach reset {reset:g} s before the first contact (`planner.approach_reset`)"
+                if reset
+                else ""
+            )
+            + ": "
             f"{of(done, len(group))} completed, "
             f"{sum(bool(r.get('finished_cleanly')) for r in group)} cleanly; the same seeds at "
             f"{calibrated:.0f} ms: "
@@ -943,7 +958,7 @@ def latency_section(study, df: pd.DataFrame) -> str:
             )
             + "."
         )
-    return head + pipe_table(cols, "lrrrlrl", rows) + "\n" + "\n".join(lines) + "\n" + held_online(study)
+    return head + pipe_table(cols, "lrrrrlrl", rows) + "\n" + "\n".join(lines) + "\n" + held_online(study)
 
 
 def held_online(study) -> str:

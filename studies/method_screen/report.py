@@ -354,6 +354,8 @@ def method_frames(study) -> pd.DataFrame:
     ours = np.array([method_name(r) == METHOD for r in df.to_dict("records")], bool)
     df = df[(df["task"] == "paper_stapler").to_numpy() & ours]
     df = df[(df["replan_interval"] - 0.17).abs() < 1e-6].copy()  # not the runs planning every 60 ms
+    if "planner.approach_reset" in df:  # the method itself, not a lever on top of it
+        df = df[df["planner.approach_reset"].isna()]
     own = str(study.dir / "records")
     df["where"] = np.where(df["record_path"].astype(str).str.startswith(own), "screen", "full")
     df = df[(df["where"] == "screen") | df["job.start_before_contact"].isna()]

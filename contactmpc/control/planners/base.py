@@ -109,6 +109,11 @@ class Planner:
             grasp is won or lost: the paper point's 128 samples lift it, 32 rarely); ``None`` (the
             paper): ``num_samples`` throughout. A latency model prices the larger plan.
         acquire_until: seconds after the first expected contact that ``acquire_samples`` lasts.
+        approach_reset: seconds before the reference's first expected contact at which the committed
+            control points whose support meets the rest of the trial go back to the reference's own
+            (the problem's ``theta0``), once: the hand meets the object with the reference's nominal,
+            as a screen trial (``job.start_before_contact``) starts, not with what the approach's
+            sampling did to it. ``None`` (the paper): never.
     """
 
     needs_rollouts = True
@@ -130,6 +135,7 @@ class Planner:
         compensate_latency: bool = False,
         acquire_samples: Annotated[int, Ge(1)] | None = None,
         acquire_until: float = 2.0,
+        approach_reset: Annotated[float, Ge(0)] | None = None,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -151,6 +157,7 @@ class Planner:
         self.compensate_latency = bool(compensate_latency)
         self.acquire_samples = None if acquire_samples is None else int(acquire_samples)
         self.acquire_until = float(acquire_until)
+        self.approach_reset = None if approach_reset is None else float(approach_reset)
         self._plan_samples: int | None = None  # the samples of the plan being made (samples_at)
         self._noise_scale: np.ndarray | None = None  # (Mw, 1) factor on the noise being drawn, or None
 
@@ -194,6 +201,14 @@ class Planner:
         # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
+        # approach_reset: before the first expected contact, the committed control points from then on go
+        # back to the reference's own, once (None: never)
+        first = problem.first_contact
+        self._approach_at = (
+            max(0.0, first - self.approach_reset)
+            if self.approach_reset is not None and first is not None
+            else None
+        )
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
         if self.robust is not None:
@@ -330,6 +345,8 @@ class Planner:
         start = time.perf_counter()
         if ahead and self.compensate_latency:  # plan from where the plant will be when the plan acts
             t, state = self.predict(t, state, ahead)
+        if self._approach_at is not None and t >= self._approach_at - 1e-9:
+            self.reset_approach()
         if self._release_at is not None and t >= self._release_at - 1e-9:
             self.release()
         self._plan_samples = self.samples_at(t)
@@ -416,6 +433,20 @@ class Planner:
         reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
         self.theta[reset] = self.problem.release_theta[reset]
         self._release_at = None
+        return reset
+
+    def reset_approach(self) -> np.ndarray:
+        """Put the committed control points whose support meets the rest of the trial after
+        ``approach_reset`` seconds before the first expected contact to the reference's own
+        (``problem.theta0``); done once.
+
+        Returns:
+            the indices of the control points reset.
+        """
+        spline, at = self.problem.spline, self._approach_at
+        reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
+        self.theta[reset] = self.problem.theta0[reset]
+        self._approach_at = None
         return reset
 
     def window_std(self, window: np.ndarray) -> np.ndarray:
