@@ -97,6 +97,12 @@ def as_recorded(df):
     return df.assign(variant=df["variant"].map(lambda v: back.get(v, v)))
 
 
+def unchallenged(df):
+    """``df`` without the trials run under a challenge (``challenge=...``: the Fig. 3 study's hard cells, a
+    task made harder than the paper's), for a study that reads another's records as the paper's tasks."""
+    return df[df["challenge"].isna()] if "challenge" in df else df
+
+
 def glance_row(task: str, configuration: str, trials) -> dict:
     """A row of the README's "results at a glance" (``analysis.study.glance_table``) for ``trials``, a
     frame with boolean ``completed`` and ``finished_cleanly`` and the CPU seconds ``compute``."""

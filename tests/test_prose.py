@@ -35,3 +35,13 @@ def test_as_recorded_undoes_the_label_map(monkeypatch) -> None:
 
     monkeypatch.setattr(contactmpc, "labels", labels, raising=False)
     assert list(as_recorded(df)["variant"]) == ["release_flat", "full", "both"]
+
+
+def test_unchallenged_leaves_out_the_trials_run_under_a_challenge() -> None:
+    import pandas as pd
+
+    from analysis.prose import unchallenged
+
+    df = pd.DataFrame({"task": ["bottle", "bottle"], "challenge": [None, "bottle_offset"]})
+    assert list(unchallenged(df)["challenge"].isna()) == [True]
+    assert len(unchallenged(df.drop(columns="challenge"))) == 2  # records without the field: all kept

@@ -13,7 +13,7 @@ import pandas as pd
 import yaml
 
 from analysis.inference import completion_test, newcombe
-from analysis.prose import median, of, ratio, seeds, span
+from analysis.prose import median, of, ratio, seeds, span, unchallenged
 from analysis.study import REPO
 from analysis.summarize import Fmt, Stat, markdown, summarize
 from contactmpc.labels import method_labels, method_name
@@ -134,6 +134,7 @@ def frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     own = str(study.dir / "records")
     screen = df[df["record_path"].astype(str).str.startswith(own)]
     full = df[~df["record_path"].astype(str).str.startswith(own)]
+    full = unchallenged(full)
     chosen = (
         (full["preset"] == "paper_32samples")
         & full["operating_point"].isna()

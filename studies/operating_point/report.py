@@ -9,7 +9,7 @@ import pandas as pd
 
 from analysis import operating_point as op
 from analysis.aggregate import select
-from analysis.prose import as_recorded, glance_row, median, of, seeds, span
+from analysis.prose import as_recorded, glance_row, median, of, seeds, span, unchallenged
 
 QUESTION = "Which planner size completes the paper's tasks on their real data, and at what compute?"
 TITLE = "The paper's operating point on the real data"
@@ -47,7 +47,7 @@ LOST_TABLE = (Path(__file__).resolve().parent / "not_kept.md").read_text()
 def trials(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The map's trials (every record of the study and of :data:`RECORDS` with a planner config, in the
     rows of :data:`FILTER`: :func:`analysis.operating_point.points`) and their records."""
-    records = as_recorded(study.records())
+    records = unchallenged(as_recorded(study.records()))
     df = select(op.points(records), **FILTER)
     return df, records[records["record_path"].isin(df["record_path"])]
 

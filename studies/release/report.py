@@ -11,7 +11,7 @@ import pandas as pd
 from analysis import release
 from analysis.aggregate import select
 from analysis.operating_point import readings
-from analysis.prose import as_recorded, frac, median, of, seeds, span
+from analysis.prose import as_recorded, frac, median, of, seeds, span, unchallenged
 from analysis.study import sweep_params
 
 QUESTION = "How should the hand let go at the end of a task, to leave the object where the reference does?"
@@ -66,6 +66,7 @@ def frames(study) -> dict[str, pd.DataFrame]:
     df = relabel(readings(as_recorded(study.records())))
     # the Fig. 3 study's full-method trials on the release experiments' seeds only (it has more elsewhere)
     df = df[df["seed"].isin([int(s) for s in sweep_params("release").get("seed", range(6))])]
+    df = unchallenged(df)
     paper = select(df, task="apple,bottle", variant=",".join(PAPER_VARIANTS), fidelity="paper")
     paper = paper[paper["preset"].ne("lite")]
     door = df[(df["task"] == "doorknob") & (df["preset"] == "lite")]  # the synthetic doorknob

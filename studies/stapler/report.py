@@ -9,7 +9,7 @@ import pandas as pd
 from scipy.stats import fisher_exact
 
 from analysis import operating_point as op
-from analysis.prose import as_recorded, glance_row, median, of, seeds, seeds_n, span
+from analysis.prose import as_recorded, glance_row, median, of, seeds, seeds_n, span, unchallenged
 from analysis.summarize import Stat, markdown, summarize
 
 QUESTION = "Why does the paper's method never lift the real stapler, and what does?"
@@ -36,7 +36,7 @@ IMAGES = "../../analysis/images"
 
 def trials(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The paper stapler's trials (:func:`analysis.operating_point.points`) and their records."""
-    records = as_recorded(study.records())
+    records = unchallenged(as_recorded(study.records()))
     df = op.points(records)
     df = df[df["task"] == "stapler"].copy()
     ms = {k: [m.get(k, False) for m in df["milestones"]] for k in ("lifted", "turned")}
