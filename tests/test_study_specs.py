@@ -324,3 +324,25 @@ def test_fig3_counts_the_cells_a_sweep_plans_not_those_it_has_reached() -> None:
     spec = Study("fig3_paper").spec
     assert spec._cells_planned("fig3_paper") == 12  # 4 tasks x 3 variants
     assert spec._cells_planned("fig3_paper_hard") == 6  # 2 challenges x 3 variants
+
+
+def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen_on(monkeypatch) -> None:
+    """heldout: per task, the held-out trials' completed and clean counts beside the sweep's, with the
+    difference and Barnard's test; without a held-out trial, a line that says so."""
+    import pandas as pd
+
+    spec = Study("method").spec
+
+    def trials(seeds, done, clean):
+        return pd.DataFrame({"task": "stapler", "variant": spec.METHOD, "seed": seeds, "counted": True,
+                             "completed": done, "finished_cleanly": clean})  # fmt: skip
+
+    chosen = trials(range(10), [True] * 10, [True] * 6 + [False] * 4)
+    monkeypatch.setattr(
+        spec, "frame", lambda study, folder=None: trials([10, 11], [True, False], [False] * 2)
+    )
+    text = spec.heldout(None, chosen)
+    assert "| stapler | 10 and 11 | 1 of 2 | 0 of 2 | 10 of 10 | 6 of 10 |" in text
+    assert "- stapler, completed: 1 of 2 held out against 10 of 10, -50 points" in text
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: trials([], [], []))
+    assert text.startswith(spec.heldout(None, chosen).removesuffix("No such trial is kept yet.\n"))

@@ -555,7 +555,7 @@ def heldout(study, chosen: pd.DataFrame) -> str:
         f"OUT=studies/method/{HELDOUT} bash studies/method/run.sh`, seeds varying slowest).\n\n"
     )
     df = frame(study, HELDOUT)
-    ok = counted(df) if len(df) else df
+    ok = df[df["counted"] & df["task"].isin(plan()[0])] if len(df) else df  # (not the sweep's seeds)
     if not len(ok):
         return head + "No such trial is kept yet.\n"
     base = counted(chosen)
