@@ -115,3 +115,29 @@ class PointMassProblem:
         ctrl = planner.controls(planner.theta[None], planner.basis(0.0))
         _, sd, _ = self.engine.run(self.state, ctrl)
         return float(np.linalg.norm(sd[0, -1, :2] - self.goal))
+
+
+def assert_resets_once_at(planner, problem, at: float, state, rng, target) -> np.ndarray:
+    """For a planner whose committed control points walked 0.3 from ``problem.theta0``: a plan before
+    ``at`` leaves them; the first plan at or after it puts those whose support meets the rest of the trial
+    to ``target``'s (the others kept); a later plan does not reset them again. Returns the indices reset."""
+    planner.plan(at - 0.1, state, rng)  # before: carries on
+    np.testing.assert_array_equal(planner.theta, problem.theta0 + 0.3)
+    planner.plan(at + 0.005, state, rng)  # the first plan at or after it
+    reset = problem.spline.window_indices(at, problem.spline.domain[1] - at)
+    kept = np.setdiff1d(np.arange(len(planner.theta)), reset)
+    assert 0 < len(reset) < len(planner.theta)
+    np.testing.assert_array_equal(planner.theta[reset], target[reset])
+    np.testing.assert_array_equal(planner.theta[kept], problem.theta0[kept] + 0.3)
+    planner.theta[reset] += 0.1  # once: a later plan does not reset again
+    planner.plan(at + 0.1, state, rng)
+    np.testing.assert_array_equal(planner.theta[reset], target[reset] + 0.1)
+    return reset
+
+
+def rest_state(model) -> np.ndarray:
+    """The full-physics state of a fresh ``MjData`` of ``model`` (at rest, where the model puts it)."""
+    data = mujoco.MjData(model)
+    state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    return state

@@ -16,7 +16,7 @@ from contactmpc.control.planners.base import improvement
 from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.trial import Trial
 from contactmpc.validate import ConfigError
-from tests.helpers import PointMassProblem, static_reference
+from tests.helpers import PointMassProblem, assert_resets_once_at, rest_state, static_reference
 from tests.test_trial import TINY, run_job
 
 
@@ -227,14 +227,10 @@ def test_approach_reset_puts_the_committed_points_back_to_the_reference_before_t
     contact, the committed control points whose support meets the rest of the trial go back to the
     reference's own (theta0), once; a plan before it, or the option off, leave them as they are.
     Real rollouts (one sample: the nominal, so what is committed is what the plan started from)."""
-    import mujoco
-
     from contactmpc.control.problem import Problem
 
     scene = scene_for("apple")
-    m, d = scene.plant_model, mujoco.MjData(scene.plant_model)
-    state = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    state = rest_state(scene.plant_model)
     rng = np.random.default_rng(0)
     reference = static_reference(scene, duration=1.0, frames=26)
     reference.contact_active[:] = False
@@ -250,17 +246,7 @@ def test_approach_reset_puts_the_committed_points_back_to_the_reference_before_t
     planner, problem = walked(0.2)
     at = problem.first_contact - 0.2
     assert at > 0.1
-    planner.plan(at - 0.1, state, rng)  # before: carries on
-    np.testing.assert_array_equal(planner.theta, problem.theta0 + 0.3)
-    planner.plan(at + 0.005, state, rng)  # the first plan at or after it
-    reset = problem.spline.window_indices(at, problem.spline.domain[1] - at)
-    kept = np.setdiff1d(np.arange(12), reset)
-    assert 0 < len(reset) < 12
-    np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset])
-    np.testing.assert_array_equal(planner.theta[kept], problem.theta0[kept] + 0.3)
-    planner.theta[reset] += 0.1  # once: a later plan does not reset again
-    planner.plan(at + 0.1, state, rng)
-    np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset] + 0.1)
+    assert_resets_once_at(planner, problem, at, state, rng, problem.theta0)
     planner.close()
     planner, problem = walked(None)  # off: never
     planner.plan(problem.first_contact, state, rng)

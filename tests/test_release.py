@@ -459,18 +459,14 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
     (theta0, or the opened one with release.open), once; a plan before it, a space without it, or a
     reference that ends held leave them as they are.
     Real rollouts (one sample: the nominal, so what is committed is what the plan started from)."""
-    import mujoco
-
     from contactmpc.control.cost import TrackingCost
     from contactmpc.control.planners.predictive_sampling import PredictiveSampling
     from contactmpc.control.problem import Problem
     from contactmpc.control.samplers import PCASplineSpace
-    from tests.helpers import static_reference
+    from tests.helpers import assert_resets_once_at, rest_state, static_reference
 
     scene = scene_for("apple")
-    m, d = scene.plant_model, mujoco.MjData(scene.plant_model)
-    state = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    state = rest_state(scene.plant_model)
     rng = np.random.default_rng(0)
 
     def walked(reference, reset: bool):
@@ -487,17 +483,7 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
     last = problem.last_contact
     expected = np.flatnonzero(problem.track.contact_active.any(axis=1))
     assert last == pytest.approx(expected[-1] * problem.track.dt)
-    planner.plan(last - 0.1, state, rng)  # before: carries on
-    np.testing.assert_array_equal(planner.theta, problem.theta0 + 0.3)
-    planner.plan(last + 0.005, state, rng)  # the first plan at or after it
-    reset = problem.spline.window_indices(last, problem.spline.domain[1] - last)
-    kept = np.setdiff1d(np.arange(12), reset)
-    assert 0 < len(reset) < 12
-    np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset])
-    np.testing.assert_array_equal(planner.theta[kept], problem.theta0[kept] + 0.3)
-    planner.theta[reset] += 0.1  # once: a later plan does not reset again
-    planner.plan(last + 0.1, state, rng)
-    np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset] + 0.1)
+    reset = assert_resets_once_at(planner, problem, last, state, rng, problem.theta0)
     planner.close()
     # with an opening nominal: the reference's own until the last contact (bit for bit: the trial is the
     # full method's until then), the opened one from the reset on

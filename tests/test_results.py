@@ -11,9 +11,7 @@ import pytest
 from contactmpc.records import RECORD_NAME
 
 REPO = Path(__file__).resolve().parent.parent
-RECORDS = sorted(
-    [*(REPO / "studies").glob(f"*/records/**/{RECORD_NAME}")]
-)
+RECORDS = sorted([*(REPO / "studies").glob(f"*/records/**/{RECORD_NAME}")])
 
 
 def _ids(paths: list[Path]) -> list[str]:
