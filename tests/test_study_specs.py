@@ -268,8 +268,9 @@ def test_the_method_study_sets_online_runs_held_to_the_calibrated_latency_beside
 
 
 def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_trials() -> None:
-    """method_section: per latency and seed group (chosen on / not), the screen's lifted count beside the
-    full trials' completed count, and the two latencies tested against each other on every screen seed."""
+    """method_section: per latency and half of the seeds, the screen's counts beside the full trials', the
+    screen against the full trials and 170 against 60 ms on every seed, and the two halves against each
+    other."""
     import pandas as pd
 
     spec = Study("method_screen").spec
@@ -284,16 +285,15 @@ def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_tria
     rows += [{"where": "full", "latency_ms": 60, "seed": s, "lifted": s < 6, "completed": s < 6,
               "status": "ok", "ttf": 1.0, "cpu_seconds": 300.0} for s in range(10)]  # fmt: skip
     df = pd.DataFrame(rows)
-    df["seeds"] = ["chosen on" if s in spec.CHOSEN_ON else "not chosen on" for s in df["seed"]]
+    df["half"] = [spec.HALVES[0] if s in spec.CHOSEN_ON else spec.HALVES[1] for s in df["seed"]]
     text = spec.method_section(df)
-    assert "| screen | 60 | not chosen on | 2 | 1/2 | 1/2 | 1.00 | 100 | 10 and 11 |" in text
+    assert "| screen | 60 | 2 | 1/2 | 1/2 | 1.00 | 100 | 10 and 11 |" in text
+    assert "- 60 ms, the screen (every seed) against the full trials: lifted 6 of 12 against 6 of 10" in text
     assert (
-        "the screen at 170 ms lifted 10 of 10; at 60 ms lifted 5 of 10 (full trials: lifted 6 of 10)" in text
+        "- the screen, 170 against 60 ms (every seed): lifted 12 of 12 against 6 of 12, a difference of +50"
+        in text
     )
-    assert (
-        "every screen seed, 170 against 60 ms: lifted 12 of 12 against 6 of 12, a difference of +50" in text
-    )
-    assert "- at 60 ms, the seeds it was chosen on against the others: lifted 5 of 10 against 1 of 2" in text
+    assert "- the screen at 60 ms, seeds 0-9 against 10-19: lifted 5 of 10 against 1 of 2" in text
     assert spec.method_section(df[df["where"] == "full"]) == ""  # no screen trial yet: no section
 
 

@@ -347,8 +347,8 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
 def method_frames(study) -> pd.DataFrame:
     """The method's stapler trials at plans every 170 ms (the calibrated loop): its screen trials
     (``SET=method``) and the method study's full trials (its records and its ``latency/`` runs), with
-    ``where`` (``screen`` / ``full``), ``latency_ms`` and ``seeds`` (the method study's seeds, on which
-    it was chosen, or not)."""
+    ``where`` (``screen`` / ``full``), ``latency_ms`` and ``half`` (seeds 0-9, the method study's, or
+    10-19)."""
     df = study.records("method", "method/latency")
     if not len(df):
         return df
@@ -361,9 +361,13 @@ def method_frames(study) -> pd.DataFrame:
     df["where"] = np.where(df["record_path"].astype(str).str.startswith(own), "screen", "full")
     df = df[(df["where"] == "screen") | df["job.start_before_contact"].isna()]
     df["latency_ms"] = (1e3 * df["latency"]).round().astype(int)
-    df["seeds"] = np.where(df["seed"].isin(CHOSEN_ON), "chosen on", "not chosen on")
+    df["half"] = np.where(df["seed"].isin(CHOSEN_ON), HALVES[0], HALVES[1])
     df["lifted"] = df["milestone_lifted"].astype(object)
     return df
+
+
+#: The two halves of the screen's seeds.
+HALVES = ("0-9", "10-19")
 
 
 def _compared(what: str, a: tuple[int, int], b: tuple[int, int]) -> str:
@@ -378,58 +382,54 @@ def _compared(what: str, a: tuple[int, int], b: tuple[int, int]) -> str:
 
 
 def method_section(df: pd.DataFrame) -> str:
-    """The method in the screen at the calibrated latency and with plans applied after 60 ms, against
-    its full trials, on the seeds it was chosen on and on others."""
+    """The method in the screen at the calibrated latency and with plans applied after 60 ms, against its
+    full trials (on the seeds it was chosen on), and the screen's two halves of seeds against each other."""
     if not len(df) or not (df["where"] == "screen").any():
         return ""
     lats = sorted(set(df.loc[df["where"] == "screen", "latency_ms"]), reverse=True)
     t = summarize(
         df,
-        by=["where", "latency_ms", "seeds"],
+        by=["where", "latency_ms", "half"],
         stats=STATS,
         order={
             "where": ["screen", "full"],
             "latency_ms": sorted(set(df["latency_ms"]), reverse=True),
-            "seeds": ["chosen on", "not chosen on"],
-        },
+            "half": list(HALVES),
+        },  # fmt: skip
     )
-    t["seed range"] = [
-        seeds(df[(df["where"] == w) & (df["latency_ms"] == lat) & (df["seeds"] == c)]["seed"])
-        for w, lat, c in zip(t["where"], t["latency_ms"], t["seeds"], strict=True)
+    t["seeds"] = [
+        seeds(df[(df["where"] == w) & (df["latency_ms"] == lat) & (df["half"] == h)]["seed"])
+        for w, lat, h in zip(t["where"], t["latency_ms"], t["half"], strict=True)
     ]
-    t = t.rename(columns={"where": "trial", "latency_ms": "latency (ms)", "seeds": "seeds"})
+    t = t.drop(columns="half").rename(columns={"where": "trial", "latency_ms": "latency (ms)"})
 
-    def count(where: str, lat: int, chosen: str | None, column: str) -> tuple[int, int]:
+    def count(where: str, lat: int, half: str | None, column: str = "lifted") -> tuple[int, int]:
         g = df[(df["where"] == where) & (df["latency_ms"] == lat)]
-        return _k(g if chosen is None else g[g["seeds"] == chosen], column)
+        return _k(g if half is None else g[g["half"] == half], column)
 
     out = []
-    for chosen in ("chosen on", "not chosen on"):
-        parts = []
-        for lat in lats:
-            sk, sn = count("screen", lat, chosen, "lifted")
-            fk, fn = count("full", lat, chosen, "lifted")
-            if sn:
-                full = f" (full trials: lifted {of(fk, fn)})" if fn else ""
-                parts.append(f"at {lat} ms lifted {of(sk, sn)}{full}")
-        if parts:
-            out.append(f"- seeds the method was {chosen}: the screen " + "; ".join(parts) + ".")
-    if len(lats) == 2:
-        sides = [count("screen", lat, None, "lifted") for lat in lats]
-        out.append(_compared(f"every screen seed, {lats[0]} against {lats[1]} ms", *sides))
     for lat in lats:
-        sides = [count("screen", lat, chosen, "lifted") for chosen in ("chosen on", "not chosen on")]
+        screen, full = count("screen", lat, None), count("full", lat, None)
+        if screen[1] and full[1]:
+            out.append(_compared(f"{lat} ms, the screen (every seed) against the full trials", screen, full))
+    if len(lats) == 2:
+        sides = [count("screen", lat, None) for lat in lats]
+        out.append(_compared(f"the screen, {lats[0]} against {lats[1]} ms (every seed)", *sides))
+    for lat in lats:
+        sides = [count("screen", lat, half) for half in HALVES]
         if all(n for _, n in sides):
-            out.append(_compared(f"at {lat} ms, the seeds it was chosen on against the others", *sides))
+            out.append(_compared(f"the screen at {lat} ms, seeds {HALVES[0]} against {HALVES[1]}", *sides))
     return (
-        "## The method in the screen: timing, and seeds it was not chosen on\n\n"
+        "## The method in the screen: its grasp, at two latencies\n\n"
         f"`SET=method`: the method (`{METHOD}` at its own preset, `paper_32samples_calibrated`) on the "
         "stapler's screen with each plan applied 170 ms after its state (the calibrated latency) and after "
         "60 ms (`planner.latency=0.06`; plans still every 170 ms), beside its full trials at the same timing "
-        "(the method study's records and its `latency/` runs). The method's groups were chosen on seeds "
-        f"{seeds(CHOSEN_ON)}; the screen's seeds from {max(CHOSEN_ON) + 1} on were not used to choose "
-        "anything. `lifted`: the record's `milestone_lifted` (in the screen the window ends 4 s after the "
-        "first contact, so `completed` there is the stapler lifted and turned, not the set-down).\n\n"
+        "(the method study's records and its `latency/` runs), which its groups were chosen on (seeds "
+        f"{seeds(CHOSEN_ON)}). A screen trial's generator starts with the screen, 3 s before the contact, so "
+        "its random draws at the grasp are not those of the full trial of the same seed: no screen seed was "
+        f"chosen on, and the halves {HALVES[0]} and {HALVES[1]} are alike by design (a difference between "
+        "them is chance). `lifted`: the record's `milestone_lifted` (in the screen the window ends 4 s after "
+        "the first contact, so `completed` there is the stapler lifted and turned, not the set-down).\n\n"
         + markdown(t)
         + "\n"
         + "\n".join(out)
