@@ -98,11 +98,11 @@ class Study:
         q = getattr(self.spec, "QUESTION", None) or (self.spec.__doc__ or "").strip().split("\n\n")[0]
         return " ".join(q.split())
 
-    def record_dirs(self, *extra: str) -> list[Path]:
+    def record_dirs(self, *extra: str, own: bool = True) -> list[Path]:
         """The folders of records it reads: its own ``records/``, each of ``RECORDS`` and ``extra``
-        (``"other_study"`` or ``"other_study/records"``), those that exist."""
-        names = [*getattr(self.spec, "RECORDS", []), *extra]
-        dirs = [self.dir / "records"]
+        (``"other_study"`` or ``"other_study/records"``), those that exist; ``own=False``: ``extra`` only."""
+        names = [*getattr(self.spec, "RECORDS", []), *extra] if own else list(extra)
+        dirs = [self.dir / "records"] if own else []
         for n in names:
             d = self.root / n
             dirs.append(d / "records" if (d / "records").is_dir() else d)
@@ -112,11 +112,12 @@ class Study:
         """Every ``trial.json`` it reads (see :meth:`record_dirs`), sorted."""
         return sorted(p for d in self.record_dirs(*extra) for p in d.rglob(RECORD_NAME) if p.is_file())
 
-    def records(self, *extra: str) -> pd.DataFrame:
-        """Its records (:meth:`record_dirs`) as :func:`analysis.aggregate.load_records` tables them,
-        with a ``fidelity`` column (the ``conf/fidelity`` member each trial ran under) and old labels
-        mapped by the project's label map where it has one. Empty (no rows) where there are none."""
-        dirs = self.record_dirs(*extra)
+    def records(self, *extra: str, own: bool = True) -> pd.DataFrame:
+        """Its records (:meth:`record_dirs`; ``own=False``: those of ``extra`` only) as
+        :func:`analysis.aggregate.load_records` tables them, with a ``fidelity`` column (the
+        ``conf/fidelity`` member each trial ran under) and old labels mapped by the project's label map
+        where it has one. Empty (no rows) where there are none."""
+        dirs = self.record_dirs(*extra, own=own)
         if not any(d.rglob(RECORD_NAME) for d in dirs):
             return pd.DataFrame(columns=["task", "variant", "fidelity", "status", "ttf", "git_revision"])
         return _relabel(_with_fidelity(load_records(*[d for d in dirs if any(d.rglob(RECORD_NAME))])))

@@ -307,7 +307,7 @@ def test_the_method_study_reads_the_replayed_releases_over_the_replays_near_thei
             (0, "slow", 1.0, 0.002), (1, "slow", 1.0, 0.02), (2, "slow", 1.0, 0.001),
             (0, "grip held", float("nan"), float("nan")), (1, "grip held", 2.0, 0.001),
             (2, "grip held", float("nan"), float("nan"))]  # fmt: skip
-    table = pd.DataFrame(rows, columns=["seed", "release", "let_go", "speed"]).assign(bound=0.003)
+    table = pd.DataFrame(rows, columns=["seed", "release", "let_go", "speed"]).assign(bound=0.003, before=0.5)
     text = spec.release_replays(table)
     assert "the 2 trials whose replayed own release let go after the span's end" in text
     assert "*recorded*: 2 of 2 let go, at 150 mm/s (median; 100-200), under the bound on 0 of 2" in text

@@ -136,7 +136,7 @@ def main() -> int:
             found = replay(scene, series, record["contact_span_end"], release)
             let_go, speed, bound = found if found is not None else (np.nan, np.nan, np.nan)
             rows.append({"record": path.parent.name, "seed": record["seed"], "release": name,
-                         "let_go": let_go, "speed": speed, "bound": bound})  # fmt: skip
+                         "let_go": let_go, "speed": speed, "bound": bound, "before": BEFORE})  # fmt: skip
             print(f"seed {record['seed']} {name}: let go {let_go:+.2f} s, {1e3 * speed:.1f} mm/s")
     if not rows:
         print("release_replay: error: no doorknob trial of the method with its time series", file=sys.stderr)

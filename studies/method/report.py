@@ -145,12 +145,7 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
     ``paper_``, with ``counted`` (status ok or diverged: a trial that ran, a diverged one not completed),
     boolean ``completed``, ``finished_cleanly`` and ``failed``, and the object errors in each task's kind
     (:func:`analysis.release.with_errors`)."""
-    if folder is None:
-        df = study.records()
-    else:
-        df = study.records(f"{study.dir.name}/{folder}")
-        if len(df):
-            df = df[df["record_path"].astype(str).str.startswith(str(study.dir / folder))]
+    df = study.records() if folder is None else study.records(f"{study.dir.name}/{folder}", own=False)
     if not len(df):
         return df.assign(record_path=[], seed=[], counted=[], completed=[], finished_cleanly=[])
     df = readings(df)
@@ -822,7 +817,8 @@ def release_replays(table: pd.DataFrame) -> str:
             where += f", at {median(v)} mm/s (median; {span(v)}), under the bound on {under}"
         parts.append(f"*{name}*: {where}")
     return (
-        f"  Replayed from each trial's state {REPLAY_BEFORE} s before the span ends, each release open-loop "
+        f"  Replayed from each trial's state {table['before'].iloc[0]:g} s before the span ends,"
+        " each release open-loop "
         "(`python studies/method/release_replay.py`; velocities zeroed, so a replay is near its trial, not "
         f"it; the {len(faithful)} trials whose replayed own release let go after the span's end): "
         + "; ".join(parts)
@@ -843,9 +839,6 @@ def _slowest(medians: dict[str, tuple[float, int, int]]) -> str:
         f"trial's own release and under the bound on {of(under, n)}"
         + (": none of the open-loop releases tried would settle the knob." if 2 * under < n else ".")
     )
-
-
-REPLAY_BEFORE = 0.5
 
 
 def _replays(study) -> str:
