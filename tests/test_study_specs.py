@@ -346,3 +346,40 @@ def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen
     assert "- stapler, completed: 1 of 2 held out against 10 of 10, -50 points" in text
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: trials([], [], []))
     assert text.startswith(spec.heldout(None, chosen).removesuffix("No such trial is kept yet.\n"))
+
+
+def test_fig3_says_in_short_which_claim_holds_where() -> None:
+    """_verdicts / _in_short: a claim holds on a task where a test in full's favour passes Holm and the
+    full method completes some trials; a passing test where every full trial fails is no evidence; the
+    doorknob counts only among the hard cells; a reading without hard cells says so."""
+    import pandas as pd
+
+    spec = Study("fig3_paper").spec
+    counts = {"apple": (6, 0), "bottle": (0, 0), "doorknob": (6, 0)}
+    rows = [
+        dict(
+            fidelity="paper", task=task, variant=variant, seed=seed, status="ok", ttf=1.0, completed=seed < k
+        )
+        for task, (full, ablated) in counts.items()
+        for variant, k in (("full", full), ("no_contact", ablated))
+        for seed in range(6)
+    ]
+    df = pd.DataFrame(rows)
+    done = pd.DataFrame(
+        [dict(fidelity="paper", variant="no_contact", task=t, p_holm=0.003, delta=1.0) for t in counts]
+    )
+    ttf = pd.DataFrame(
+        [dict(condition="paper", variant="no_contact", task="bottle", p_holm=0.01, prob_superiority=0.9)]
+    )
+    main = spec._verdicts(df, ttf, done)
+    hard = spec._verdicts(df, ttf, done, hard=True)
+    assert [(r["variant"], r["real"], r["failing"]) for r in main] == [("no_contact", ["apple"], ["bottle"])]
+    assert main[0]["tasks"] == ["apple", "bottle"] and hard[0]["real"] == ["doorknob", "apple"]
+    f = Study("fig3_paper").fmt
+    table = spec._in_short(main, [], f)
+    assert (
+        "| the text's reading | the contact term (`no_contact`) | **holds** on the apple | not run yet |"
+        in table
+    )
+    quiet = spec._verdicts(df, ttf.iloc[:0], done.iloc[:0])
+    assert "not established (full ahead on the apple, of 2)" in spec._in_short(quiet, hard, f)
