@@ -252,3 +252,86 @@ def test_approach_reset_puts_the_committed_points_back_to_the_reference_before_t
     planner.plan(problem.first_contact, state, rng)
     np.testing.assert_array_equal(planner.theta, problem.theta0 + 0.3)
     planner.close()
+
+
+@pytest.fixture(scope="module")
+def rising_problem(scene_for):
+    """The synthetic apple's scene with a reference whose object rises 5 cm while every link expects
+    contact (the guide's path), bound for a 0.5 s horizon."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=26)
+    ref.object_qpos[:, 2] += np.linspace(0.0, 0.05, 26)
+    return Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.5, 12)
+
+
+def test_guidance_pulls_the_object_in_the_planning_model_only_and_the_last_iteration_goes_without(
+    rising_problem,
+):
+    """planner.guidance: the guided model's stiffest iteration holds the object near the reference's pose
+    where the unguided one lets it go; the weld softens over the iterations and is off in the last, whose
+    rollouts are the planning model's own, bit for bit; the plan's nominal cost is the unguided one's, so
+    the committed sample never scores worse than it."""
+    from contactmpc.control.guidance import ObjectGuidance
+
+    problem = rising_problem
+    scene = problem.scene
+    guided = PredictiveSampling(
+        num_samples=4, horizon=0.5, nthread=1, iterations=3, guidance=ObjectGuidance()
+    )
+    plain = PredictiveSampling(num_samples=4, horizon=0.5, nthread=1, iterations=3)
+    guided.bind(problem)
+    plain.bind(problem)
+    g = guided.guidance
+    np.testing.assert_allclose(g.weights(3), [1.0, 0.5, 0.0])
+    assert [float(m.eq_solref[g.weld, 0]) for m in g.models[:2]] == [0.05, 0.1]
+    state = rest_state(scene.plant_model)
+    t = 0.3
+    ctrl = guided.controls(guided.theta[None], guided.basis(t))
+    window = problem.track.window(t, guided.steps)
+    target = problem.track.object_qpos[window.start + guided.steps - 1, :3]
+    obj = 1 + scene.index.object_qpos[:3]  # (the state's first entry is the time)
+    end = {}
+    for i, w in enumerate(g.weights(3)):
+        states, _, _ = guided.engine.run(state, ctrl, [g.models[i]], g.inputs(window, guided.steps, w))
+        end[i] = states[0, -1].copy()  # (the engine reuses its output buffers)
+    unguided, _, _ = plain.engine.run(state, ctrl)
+    assert np.linalg.norm(end[0][obj] - target) < 0.01  # held within 1 cm of the reference
+    assert np.linalg.norm(unguided[0, -1][obj] - target) > 0.1  # without it, the object goes elsewhere
+    np.testing.assert_array_equal(end[2], unguided[0, -1])  # the last iteration: the model's own dynamics
+    info = guided.plan(t, state, np.random.default_rng(0))
+    assert info.iterations == 3 and info.best_cost <= info.nominal_cost
+    guided.close()
+    plain.close()
+
+
+def test_guidance_refuses_what_it_cannot_do(rising_problem, scene_for):
+    """One iteration (nothing would plan unguided), a robust ensemble beside it, or an object without one
+    free body: a ConfigError naming the problem."""
+    from contactmpc.control.guidance import ObjectGuidance
+    from contactmpc.control.robust import ModelEnsemble
+
+    with pytest.raises(ConfigError, match="iterations >= 2"):
+        PredictiveSampling(num_samples=2, horizon=0.5, nthread=1, guidance=ObjectGuidance()).bind(
+            rising_problem
+        )
+    both = PredictiveSampling(
+        num_samples=2, horizon=0.5, nthread=1, iterations=2, guidance=ObjectGuidance(), robust=ModelEnsemble()
+    )
+    with pytest.raises(ConfigError, match="choose one"):
+        both.bind(rising_problem)
+    door = scene_for("doorknob")
+    with pytest.raises(ConfigError, match="0 free object bodies"):
+        ObjectGuidance().bind(door, None, 2)
+    with pytest.raises(ConfigError):
+        ObjectGuidance(during="sometimes")
+
+
+def test_guidance_runs_in_a_trial(tmp_path, late_contact_reference):
+    """guidance=object composes and runs a trial (the synthetic apple, two iterations); the record says so."""
+    overrides = ["task=apple", f"task.reference_path={late_contact_reference[1]}", *TINY]
+    overrides += ["job.progress=false", "duration=0.3", "guidance=object", "planner.iterations=2"]
+    record = json.loads(run_job(overrides, tmp_path).read_text())
+    assert record["status"] == "ok"
+    assert record["config"]["planner"]["guidance"]["_target_"] == "contactmpc.control.guidance.ObjectGuidance"

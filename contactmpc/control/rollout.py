@@ -58,10 +58,23 @@ class RolloutEngine:
     Args:
         model: the planning model (agent timestep).
         nthread: worker threads; ``None`` = the CPUs this process may use (:func:`available_cpus`).
+        control_spec: the ``mjtState`` bits of a rollout's inputs per step: the controls (the default),
+            or more (:mod:`~contactmpc.control.guidance`'s equality flags and mocap poses), which
+            :meth:`run` appends to the controls.
+        extra: (k,) the inputs besides the controls where :meth:`run` is given none (with
+            ``control_spec`` beyond the controls).
     """
 
-    def __init__(self, model: mujoco.MjModel, nthread: int | None = None) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        nthread: int | None = None,
+        control_spec: int = int(mujoco.mjtState.mjSTATE_CTRL),
+        extra: np.ndarray | None = None,
+    ) -> None:
         self.model = model
+        self.control_spec = int(control_spec)
+        self.extra = None if extra is None else np.asarray(extra, dtype=float)
         self.nthread = int(nthread or available_cpus())
         self.datas = [mujoco.MjData(model) for _ in range(self.nthread)]
         self.pool = rollout.Rollout(nthread=self.nthread)
@@ -79,7 +92,11 @@ class RolloutEngine:
         self.close()
 
     def run(
-        self, initial_state: np.ndarray, controls: np.ndarray, models: list[mujoco.MjModel] | None = None
+        self,
+        initial_state: np.ndarray,
+        controls: np.ndarray,
+        models: list[mujoco.MjModel] | None = None,
+        extra: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Roll out ``controls`` from ``initial_state``.
 
@@ -88,6 +105,8 @@ class RolloutEngine:
             controls: (S, H, nu) controls; row h is applied during step h.
             models: (S,) one model per rollout (variants of :attr:`model`, same sizes); ``None``: the
                 engine's model for all.
+            extra: (H, k) the inputs besides the controls per step, the same for every rollout (an engine
+                whose ``control_spec`` has more than the controls); ``None``: the engine's ``extra``.
 
         Returns:
             state: (S, H, nstate) the state after each step.
@@ -103,11 +122,16 @@ class RolloutEngine:
             )
         state, sensordata = self._buffers[key]
         x0 = np.broadcast_to(initial_state, (S, self.nstate))
+        if self.control_spec != mujoco.mjtState.mjSTATE_CTRL:
+            more = self.extra if extra is None else extra
+            more = np.broadcast_to(more, (S, H, more.shape[-1]))
+            controls = np.concatenate([np.asarray(controls, dtype=np.float64), more], axis=-1)
         self.pool.rollout(
             self.model if models is None else models,
             self.datas,
             initial_state=np.ascontiguousarray(x0),
             control=np.ascontiguousarray(controls, dtype=np.float64),
+            control_spec=self.control_spec,
             state=state,
             sensordata=sensordata,
         )

@@ -3,6 +3,7 @@ a few seconds after it) rank the method levers of issue 33 as full trials do, at
 
 from __future__ import annotations
 
+import inspect
 import json
 import re
 import shlex
@@ -16,6 +17,7 @@ from analysis.inference import completion_test, newcombe
 from analysis.prose import median, of, ratio, seeds, span, unchallenged
 from analysis.study import REPO
 from analysis.summarize import Fmt, Stat, markdown, summarize
+from contactmpc.control.guidance import ObjectGuidance
 from contactmpc.labels import method_labels, method_name
 
 TITLE = "The cheap screen of the method levers (issue 33)"
@@ -49,6 +51,7 @@ LEVER_KEYS = (
     ("planner.update", "max", ""),
     ("sampler.noise_ramp", 1.0, "ramp"),
     ("planner.num_samples", 32.0, "samples"),
+    ("planner.guidance.timeconst", None, "guide"),
 )
 #: Where each lever option comes from (issue 33).
 SOURCES = {
@@ -58,6 +61,7 @@ SOURCES = {
     "planner.update": "SPIDER (softmax over the top elites)",
     "sampler.noise_ramp": "judo (`optimizers/overrides.py`)",
     "planner.num_samples": "the paper point's samples (the stapler study)",
+    "planner.guidance.timeconst": "DexMachina's virtual object controller, annealed as SPIDER's guidance",
     "variant": "this project (the stapler study)",
     "compensation": "this project: plan from the state predicted for when the plan takes effect",
 }
@@ -269,12 +273,22 @@ def verdict(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     )
 
 
+def _options(overrides: list[str]) -> dict:
+    """A lever's overrides as the options its records name (a group's member by its settings)."""
+    opts = dict(o.split("=", 1) for o in overrides)
+    if "guidance" in opts:  # guidance=object: the lever is named by its weld's time constant
+        member = yaml.safe_load((REPO / "conf" / "guidance" / f"{opts['guidance']}.yaml").read_text())
+        default = inspect.signature(ObjectGuidance).parameters["timeconst"].default
+        opts["planner.guidance.timeconst"] = float(member.get("timeconst", default))
+    return opts
+
+
 def levers_table(spec: dict) -> str:
     rows = ["| lever (as the tables name it) | overrides | source |", "|---|---|---|"]
     for overrides in spec["levers"]:
-        opts = dict(o.split("=", 1) for o in overrides)
+        opts = _options(overrides)
         name = lever(opts)
-        keys = [k for k in opts if k != "variant"] or ["variant"]
+        keys = [k for k in opts if k not in ("variant", "guidance")] or ["variant"]
         sources = list(dict.fromkeys(SOURCES.get(k, "") for k in keys if SOURCES.get(k)))
         if opts.get("variant") == "full" and keys == ["variant"]:
             sources = ["the paper's method (the baseline)"]
@@ -452,7 +466,7 @@ def report(study) -> str:
         else ""
     )
     latency = median(screen["latency"], "{:.0f}", scale=1000) if "latency" in screen else "-"
-    lever_order = [lever(dict(o.split("=", 1) for o in ov)) for ov in spec["levers"]]
+    lever_order = [lever(_options(ov)) for ov in spec["levers"]]
     shown = " ".join(f"{k}={v}" for k, v in common.items() if not k.startswith(("hydra", "task")))
     seen = sorted(set(screen["seed"].dropna().astype(int))) if len(screen) else []
     return (

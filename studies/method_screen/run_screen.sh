@@ -35,6 +35,14 @@ LEVERS=(
 # calibrated 170 ms latency and with each plan applied after 60 ms (plans still every 170 ms), on the stapler:
 # does the screen show the full trials' sensitivity to timing, and what does the method do on seeds it was not
 # chosen on (SEEDS="10 11 ...")?
+# SET=guidance: contact guidance in the planning model (guidance=object: the object pulled along the
+# reference, stiffest in a plan's first iteration, off in its last) on top of the iterations it needs, beside
+# the same iterations without it, on both tasks
+elif [[ ${SET:-full} == guidance ]]; then
+LEVERS=(
+  "variant=full planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01"
+  "variant=full planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01 guidance=object"
+)
 elif [[ ${SET:-full} == method ]]; then
 LEVERS=(
   "variant=grasp_release_ahead_acquire"

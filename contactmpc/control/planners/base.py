@@ -20,6 +20,7 @@ from typing import Annotated, NamedTuple
 import numpy as np
 
 from contactmpc.control.cost import as_index
+from contactmpc.control.guidance import CONTROL_SPEC, ObjectGuidance
 from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.problem import Problem
 from contactmpc.control.robust import ModelEnsemble
@@ -33,7 +34,8 @@ class PlanInfo:
 
     Attributes:
         time: control time at which it planned (s).
-        nominal_cost: cumulative cost of the unperturbed nominal (sample 0), or NaN without rollouts.
+        nominal_cost: cumulative cost of the unperturbed nominal (sample 0), or NaN without rollouts (with
+            guidance: the nominal the last, unguided iteration starts from, as the planning model scores it).
         best_cost: lowest cumulative cost among the samples (NaN without rollouts).
         terms: cumulative cost terms of the committed (best) sample, by the cost's term names (NaN
             without rollouts).
@@ -114,6 +116,10 @@ class Planner:
             (the problem's ``theta0``), once: the hand meets the object with the reference's nominal,
             as a screen trial (``job.start_before_contact``) starts, not with what the approach's
             sampling did to it. ``None`` (the paper): never.
+        guidance: contact guidance in the planning model only, annealed over the plan's ``iterations``
+            (:class:`~contactmpc.control.guidance.ObjectGuidance`; not the paper's): every iteration but
+            the last rolls out with the object pulled toward the reference's, the last without; an
+            iteration with guidance does not stop the plan early. ``None`` (the paper): none.
     """
 
     needs_rollouts = True
@@ -136,6 +142,7 @@ class Planner:
         acquire_samples: Annotated[int, Ge(1)] | None = None,
         acquire_until: float = 2.0,
         approach_reset: Annotated[float, Ge(0)] | None = None,
+        guidance: ObjectGuidance | None = None,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -160,6 +167,8 @@ class Planner:
         self.approach_reset = None if approach_reset is None else float(approach_reset)
         self._plan_samples: int | None = None  # the samples of the plan being made (samples_at)
         self._noise_scale: np.ndarray | None = None  # (Mw, 1) factor on the noise being drawn, or None
+        self.guidance = guidance
+        self._iteration = 0  # the plan's iteration being rolled out (the guidance's strength)
 
     # --- the two methods a planner implements ------------------------------------------------
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
@@ -209,6 +218,12 @@ class Planner:
             if self.approach_reset is not None and first is not None
             else None
         )
+        if self.guidance is not None and self.needs_rollouts:
+            if self.robust is not None:
+                raise ConfigError("planner.guidance and planner.robust: choose one")
+            guided = self.guidance.bind(problem.scene, problem.track, self.iterations)
+            if self.engine is None:
+                self.engine = RolloutEngine(guided, self.nthread, CONTROL_SPEC, self.guidance.off())
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
         if self.robust is not None:
@@ -296,18 +311,22 @@ class Planner:
             diverged: (S,) bool.
         """
         ctrl = self.controls(thetas, self.basis(t))
-        models = None
+        models, extra = None, None
+        window = self.problem.track.window(t, self.steps)
+        if self.guidance is not None:  # this iteration's weld, and the guide along the reference
+            weight = float(self.guidance.weights(self.iterations)[self._iteration])
+            models = [self.guidance.models[self._iteration]] * len(ctrl)
+            extra = self.guidance.inputs(window, self.steps, weight)
         if self._models is not None:  # every candidate under each of the K models: (K * S) rollouts
             num_models, num_cand = len(self._models), len(thetas)
             ctrl = np.concatenate([ctrl] * num_models, axis=0)
             models = [m for m in self._models for _ in range(num_cand)]
-        _, sensordata, diverged = self.engine.run(state, ctrl, models)
-        window = self.problem.track.window(t, self.steps)
+        _, sensordata, diverged = self.engine.run(state, ctrl, models, extra)
         n = window.stop - window.start
         terms = {k: v.sum(axis=-1) for k, v in self.problem.cost(sensordata[:, :n], window).items()}
         total = sum(terms.values())
         total = np.where(diverged | ~np.isfinite(total), np.inf, total)
-        if models is not None:
+        if self._models is not None:
             total = self.robust.aggregate(total.reshape(num_models, num_cand))
             terms = {name: v.reshape(num_models, num_cand).mean(axis=0) for name, v in terms.items()}
             diverged = diverged.reshape(num_models, num_cand).any(axis=0)
@@ -370,16 +389,19 @@ class Planner:
             return PlanInfo(time=t, window=window, terms=terms, seconds=time.perf_counter() - start)
         num_diverged, nominal_cost = 0, float("nan")
         for i in range(self.iterations):
+            self._iteration = i
             window, candidates, thetas = self.candidates(rng, t, i)
             total, terms, diverged = self.evaluate(state, t, thetas)
-            if i == 0:
-                nominal_cost = float(total[0])
+            if i == (self.iterations - 1 if self.guidance is not None else 0):
+                nominal_cost = float(total[0])  # (with guidance: the first the unguided model scores)
             self.theta[window], best_cost, best_terms = self.commit(
                 Scored(state, t, window, candidates, total, terms)
             )
             num_diverged += int(diverged.sum())
-            if self.early_stop and improvement(float(total[0]), best_cost) < self.early_stop:
+            guided = self.guidance is not None and i < self.iterations - 1
+            if self.early_stop and not guided and improvement(float(total[0]), best_cost) < self.early_stop:
                 break
+        self._iteration = 0
         return PlanInfo(
             time=t,
             window=window,
