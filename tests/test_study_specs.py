@@ -383,3 +383,23 @@ def test_fig3_says_in_short_which_claim_holds_where() -> None:
     )
     quiet = spec._verdicts(df, ttf.iloc[:0], done.iloc[:0])
     assert "not established (full ahead on the apple, of 2)" in spec._in_short(quiet, hard, f)
+
+
+def test_the_screen_sets_contact_guidance_beside_the_same_iterations_without_it() -> None:
+    """guidance_findings: the guided lever against its name without ``guide…``, per task on the seeds both
+    have (a seed only one has is left out), with Barnard's test; nothing without a guided lever."""
+    import pandas as pd
+
+    spec = Study("method_screen").spec
+    base, guided = "full it4 anneal0.1 stop0.01", "full it4 anneal0.1 stop0.01 guide0.05"
+    rows = [
+        dict(lever=lever, task="paper_stapler", seed=seed, status="ok", lifted=lifted, completed=lifted,
+             ttf=1.0 if lifted else 0.5, cpu_seconds=cpu)
+        for lever, cpu, lifts in ((base, 40.0, (0, 0, 0, 0)), (guided, 160.0, (1, 1, 0, 1, 1)))
+        for seed, lifted in enumerate(lifts)
+    ]  # fmt: skip
+    text = spec.guidance_findings(pd.DataFrame(rows))
+    assert text.startswith(f"**Contact guidance** (`{guided}` against `{base}`")
+    assert "- paper_stapler, seeds 0-3: lifted 3 of 4 against 0 of 4 (Barnard p = " in text
+    assert "median TTF 1.00 against 0.50; CPU-s × 4.00" in text
+    assert spec.guidance_findings(pd.DataFrame(rows[:4])) == ""

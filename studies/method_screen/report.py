@@ -358,6 +358,40 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     return "\n".join(out) + "\n"
 
 
+def guidance_findings(screen: pd.DataFrame) -> str:
+    """Contact guidance (a lever whose name ends ``guide<timeconst>``) against the same lever without it,
+    per task on the seeds both have: lifted and completed counts, Barnard's test of each, median TTF and
+    the CPU-s ratio."""
+    out = []
+    for name in sorted({n for n in screen["lever"] if " guide" in n}):
+        base = name.rsplit(" guide", 1)[0]
+        for task in TASKS:
+            g = counted(screen[(screen["task"] == task) & (screen["lever"] == name)])
+            b = counted(screen[(screen["task"] == task) & (screen["lever"] == base)])
+            both = sorted(set(g["seed"]) & set(b["seed"]))
+            if not both:
+                continue
+            g, b = g[g["seed"].isin(both)], b[b["seed"].isin(both)]
+            parts = []
+            for what in ("lifted", "completed"):
+                (gk, gn), (bk, bn) = _k(g, what), _k(b, what)
+                p, _ = completion_test(gk, gn, bk, bn)
+                parts.append(f"{what} {gk} of {gn} against {bk} of {bn} (Barnard p = {p:.3g})")
+            out.append(
+                f"- {task}, seeds {seeds(both)}: " + "; ".join(parts) + f"; median TTF "
+                f"{median(g['ttf'], '{:.2f}')} against {median(b['ttf'], '{:.2f}')}; CPU-s × "
+                f"{ratio(g['cpu_seconds'].median(), b['cpu_seconds'].median(), '{:.2f}')} (every iteration "
+                "runs where the guidance is on: early stopping waits for the last, unguided one)."
+            )
+        if out:
+            out.insert(
+                0,
+                f"**Contact guidance** (`{name}` against `{base}`, the same iterations without it; "
+                "`guidance=object`, `contactmpc.control.guidance`):",
+            )
+    return "\n".join(out) + "\n" if out else ""
+
+
 def method_frames(study) -> pd.DataFrame:
     """The method's stapler trials at plans every 170 ms (the calibrated loop): its screen trials
     (``SET=method``) and the method study's full trials (its records and its ``latency/`` runs), with
@@ -516,5 +550,6 @@ def report(study) -> str:
         + "\n## What the records show\n\n"
         + verdict(screen, full)
         + findings(screen, full)
+        + (f"\n{guided}" if (guided := guidance_findings(screen)) else "")
         + (f"\n{section}" if (section := method_section(method_frames(study))) else "")
     )
