@@ -37,6 +37,13 @@ METHOD = "grasp_release_ahead_acquire"
 #: The method study's seeds (0-9), on which the method's groups were chosen; the screen's seeds from 10 on
 #: were not.
 CHOSEN_ON = range(10)
+#: The calibrated latency (ms) at which the method runs (``preset=paper_32samples_calibrated``'s).
+CALIBRATED_MS = round(
+    1e3
+    * yaml.safe_load((REPO / "conf" / "preset" / "paper_32samples_calibrated.yaml").read_text())["planner"][
+        "latency"
+    ]
+)
 SCRIPT = HERE / "run_screen.sh"
 TASKS = ("paper_stapler", "paper_bottle")
 BASELINES = ("full", "wrist_clearance")
@@ -358,16 +365,23 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     return "\n".join(out) + "\n"
 
 
-def guidance_findings(screen: pd.DataFrame) -> str:
+def guidance_findings(screen: pd.DataFrame, method: pd.DataFrame | None = None) -> str:
     """Contact guidance (a lever whose name ends ``guide<timeconst>``) against the same lever without it,
-    per task on the seeds both have: lifted and completed counts, Barnard's test of each, median TTF and
-    the CPU-s ratio."""
+    or, where that was not run and the lever builds on the method's groups (``SET=guidance_method``),
+    against the method in the screen at the calibrated latency (``method``: :func:`method_frames`'s screen
+    rows), per task on the seeds both have: lifted and completed counts, Barnard's test of each, median TTF
+    and the CPU-s ratio."""
     out = []
     for name in sorted({n for n in screen["lever"] if " guide" in n}):
         base = name.rsplit(" guide", 1)[0]
+        items = []
         for task in TASKS:
             g = counted(screen[(screen["task"] == task) & (screen["lever"] == name)])
             b = counted(screen[(screen["task"] == task) & (screen["lever"] == base)])
+            against = f"`{base}`"
+            if not len(b) and method is not None and name.startswith("grasp_release_ahead "):
+                b = counted(method[(method["task"] == task) & (method["latency_ms"] == CALIBRATED_MS)])
+                against = f"the method (`{METHOD}`, one iteration of 128 samples while contact is acquired)"
             both = sorted(set(g["seed"]) & set(b["seed"]))
             if not both:
                 continue
@@ -377,19 +391,23 @@ def guidance_findings(screen: pd.DataFrame) -> str:
                 (gk, gn), (bk, bn) = _k(g, what), _k(b, what)
                 p, _ = completion_test(gk, gn, bk, bn)
                 parts.append(f"{what} {gk} of {gn} against {bk} of {bn} (Barnard p = {p:.3g})")
-            out.append(
-                f"- {task}, seeds {seeds(both)}: " + "; ".join(parts) + f"; median TTF "
+            items.append(
+                f"- {task}, against {against}, seeds {seeds(both)}: " + "; ".join(parts) + "; median TTF "
                 f"{median(g['ttf'], '{:.2f}')} against {median(b['ttf'], '{:.2f}')}; CPU-s × "
-                f"{ratio(g['cpu_seconds'].median(), b['cpu_seconds'].median(), '{:.2f}')} (every iteration "
-                "runs where the guidance is on: early stopping waits for the last, unguided one)."
+                f"{ratio(g['cpu_seconds'].median(), b['cpu_seconds'].median(), '{:.2f}')}."
             )
-        if out:
-            out.insert(
-                0,
-                f"**Contact guidance** (`{name}` against `{base}`, the same iterations without it; "
-                "`guidance=object`, `contactmpc.control.guidance`):",
-            )
-    return "\n".join(out) + "\n" if out else ""
+        if items:
+            out += [
+                f"**Contact guidance**, `{name}` (`guidance=object`, `contactmpc.control.guidance`):",
+                *items,
+            ]
+    if not out:
+        return ""
+    return (
+        "\n".join(out)
+        + "\n\nWith the guidance on, every iteration of a plan runs (early stopping waits for the last, "
+        "unguided one), so a guided plan costs its iterations' rollouts in full.\n"
+    )
 
 
 def method_frames(study) -> pd.DataFrame:
@@ -427,6 +445,12 @@ def _compared(what: str, a: tuple[int, int], b: tuple[int, int]) -> str:
         f"{100 * lo:+.0f} to {100 * hi:+.0f}; Barnard's exact two-sided p = {Fmt.p(p)}, the smallest these "
         f"counts allow {Fmt.p(floor)})."
     )
+
+
+def _screened_method(study) -> pd.DataFrame | None:
+    """The method's screen trials (:func:`method_frames`), ``None`` without any."""
+    df = method_frames(study)
+    return df[df["where"] == "screen"] if len(df) else None
 
 
 def method_section(df: pd.DataFrame) -> str:
@@ -550,6 +574,6 @@ def report(study) -> str:
         + "\n## What the records show\n\n"
         + verdict(screen, full)
         + findings(screen, full)
-        + (f"\n{guided}" if (guided := guidance_findings(screen)) else "")
+        + (f"\n{guided}" if (guided := guidance_findings(screen, _screened_method(study))) else "")
         + (f"\n{section}" if (section := method_section(method_frames(study))) else "")
     )
