@@ -45,10 +45,12 @@ LEVERS=(
 )
 # SET=guidance_method: the same guidance on the method's groups at the method's preset, on the stapler, its
 # 128 rollouts a plan while contact is acquired spent as 4 iterations of 32 (effort=uniform: no 128-sample
-# iterations), beside the method in the screen (SET=method) at the calibrated latency
+# iterations), beside the same iterations without it and the method in the screen (SET=method) at the
+# calibrated latency
 elif [[ ${SET:-full} == guidance_method ]]; then
 LEVERS=(
   "variant=grasp_release_ahead planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01 guidance=object"
+  "variant=grasp_release_ahead planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01"
 )
 COMMON=("${COMMON[@]/preset=paper_32samples/preset=paper_32samples_calibrated}")
 COMMON=("${COMMON[@]/task=paper_stapler,paper_bottle/task=${TASKS:-paper_stapler}}")
