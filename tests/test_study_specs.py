@@ -399,7 +399,10 @@ def test_the_screen_sets_contact_guidance_beside_the_same_iterations_without_it(
         for seed, lifted in enumerate(lifts)
     ]  # fmt: skip
     text = spec.guidance_findings(pd.DataFrame(rows))
-    assert text.startswith(f"**Contact guidance**, `{guided}`")
-    assert f"- paper_stapler, against `{base}`, seeds 0-3: lifted 3 of 4 against 0 of 4 (Barnard p = " in text
+    assert text.startswith(f"**Contact guidance**, `{guided}` against `{base}`")
+    assert (
+        "- paper_stapler, with the guidance against without it, seeds 0-3: lifted 3 of 4 against 0 of 4 "
+        "(Barnard p = " in text
+    )
     assert "median TTF 1.00 against 0.50; CPU-s × 4.00" in text
     assert spec.guidance_findings(pd.DataFrame(rows[:4])) == ""

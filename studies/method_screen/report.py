@@ -283,6 +283,8 @@ def verdict(screen: pd.DataFrame, full: pd.DataFrame) -> str:
 def _options(overrides: list[str]) -> dict:
     """A lever's overrides as the options its records name (a group's member by its settings)."""
     opts = dict(o.split("=", 1) for o in overrides)
+    if "compensation" not in opts and "variant" in opts:  # a named variant's groups, as its records name them
+        opts["compensation"] = method_labels({"variant": opts["variant"]}).get("compensation")
     if "guidance" in opts:  # guidance=object: the lever is named by its weld's time constant
         member = yaml.safe_load((REPO / "conf" / "guidance" / f"{opts['guidance']}.yaml").read_text())
         default = inspect.signature(ObjectGuidance).parameters["timeconst"].default
@@ -365,42 +367,47 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     return "\n".join(out) + "\n"
 
 
+def _pair(task: str, a: pd.DataFrame, b: pd.DataFrame, name_a: str, name_b: str) -> str | None:
+    """One comparison line: ``a`` against ``b`` on the seeds both have (lifted and completed with Barnard's
+    test, median TTF, CPU-s ratio); ``None`` where they share no seed."""
+    a, b = counted(a), counted(b)
+    both = sorted(set(a["seed"]) & set(b["seed"]))
+    if not both:
+        return None
+    a, b = a[a["seed"].isin(both)], b[b["seed"].isin(both)]
+    parts = []
+    for what in ("lifted", "completed"):
+        (ak, an), (bk, bn) = _k(a, what), _k(b, what)
+        p, _ = completion_test(ak, an, bk, bn)
+        parts.append(f"{what} {ak} of {an} against {bk} of {bn} (Barnard p = {p:.3g})")
+    return (
+        f"- {task}, {name_a} against {name_b}, seeds {seeds(both)}: " + "; ".join(parts) + "; median TTF "
+        f"{median(a['ttf'], '{:.2f}')} against {median(b['ttf'], '{:.2f}')}; CPU-s × "
+        f"{ratio(a['cpu_seconds'].median(), b['cpu_seconds'].median(), '{:.2f}')}."
+    )
+
+
 def guidance_findings(screen: pd.DataFrame, method: pd.DataFrame | None = None) -> str:
-    """Contact guidance (a lever whose name ends ``guide<timeconst>``) against the same lever without it,
-    or, where that was not run and the lever builds on the method's groups (``SET=guidance_method``),
-    against the method in the screen at the calibrated latency (``method``: :func:`method_frames`'s screen
-    rows), per task on the seeds both have: lifted and completed counts, Barnard's test of each, median TTF
-    and the CPU-s ratio."""
+    """Contact guidance (a lever named ``… guide<timeconst> …``) against the same lever without it, per task
+    on the seeds both have (lifted and completed counts, Barnard's test of each, median TTF, the CPU-s
+    ratio); where the lever builds on the method's groups (``SET=guidance_method``), both also against the
+    method in the screen at the calibrated latency (``method``: :func:`method_frames`'s screen rows)."""
     out = []
+    the_method = f"the method (`{METHOD}`: one iteration of 128 samples while contact is acquired)"
     for name in sorted({n for n in screen["lever"] if " guide" in n}):
-        base = name.rsplit(" guide", 1)[0]
+        base = re.sub(r" guide\S+", "", name)
         items = []
         for task in TASKS:
-            g = counted(screen[(screen["task"] == task) & (screen["lever"] == name)])
-            b = counted(screen[(screen["task"] == task) & (screen["lever"] == base)])
-            against = f"`{base}`"
-            if not len(b) and method is not None and name.startswith("grasp_release_ahead "):
-                b = counted(method[(method["task"] == task) & (method["latency_ms"] == CALIBRATED_MS)])
-                against = f"the method (`{METHOD}`, one iteration of 128 samples while contact is acquired)"
-            both = sorted(set(g["seed"]) & set(b["seed"]))
-            if not both:
-                continue
-            g, b = g[g["seed"].isin(both)], b[b["seed"].isin(both)]
-            parts = []
-            for what in ("lifted", "completed"):
-                (gk, gn), (bk, bn) = _k(g, what), _k(b, what)
-                p, _ = completion_test(gk, gn, bk, bn)
-                parts.append(f"{what} {gk} of {gn} against {bk} of {bn} (Barnard p = {p:.3g})")
-            items.append(
-                f"- {task}, against {against}, seeds {seeds(both)}: " + "; ".join(parts) + "; median TTF "
-                f"{median(g['ttf'], '{:.2f}')} against {median(b['ttf'], '{:.2f}')}; CPU-s × "
-                f"{ratio(g['cpu_seconds'].median(), b['cpu_seconds'].median(), '{:.2f}')}."
-            )
+            g = screen[(screen["task"] == task) & (screen["lever"] == name)]
+            b = screen[(screen["task"] == task) & (screen["lever"] == base)]
+            pairs = [(g, b, "with the guidance", "without it")]
+            if method is not None and name.startswith("grasp_release_ahead "):
+                m = method[(method["task"] == task) & (method["latency_ms"] == CALIBRATED_MS)]
+                pairs += [(g, m, "with the guidance", the_method), (b, m, "without it", the_method)]
+            items += [line for a, c, x, y in pairs if len(a) and len(c) and (line := _pair(task, a, c, x, y))]
         if items:
-            out += [
-                f"**Contact guidance**, `{name}` (`guidance=object`, `contactmpc.control.guidance`):",
-                *items,
-            ]
+            out += [f"**Contact guidance**, `{name}` against `{base}` (`guidance=object`, "
+                    "`contactmpc.control.guidance`):", *items]  # fmt: skip
     if not out:
         return ""
     return (
