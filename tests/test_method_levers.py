@@ -271,7 +271,7 @@ def test_guidance_pulls_the_object_in_the_planning_model_only_and_the_last_itera
 ):
     """planner.guidance: the guided model's stiffest iteration holds the object near the reference's pose
     where the unguided one lets it go; the weld softens over the iterations and is off in the last, whose
-    rollouts are the planning model's own, bit for bit; the plan's nominal cost is the unguided one's, so
+    rollouts are the planning model's own (to rounding); the plan's nominal cost is the unguided one's, so
     the committed sample never scores worse than it."""
     from contactmpc.control.guidance import ObjectGuidance
 
@@ -299,7 +299,8 @@ def test_guidance_pulls_the_object_in_the_planning_model_only_and_the_last_itera
     unguided, _, _ = plain.engine.run(state, ctrl)
     assert np.linalg.norm(end[0][obj] - target) < 0.01  # held within 1 cm of the reference
     assert np.linalg.norm(unguided[0, -1][obj] - target) > 0.1  # without it, the object goes elsewhere
-    np.testing.assert_array_equal(end[2], unguided[0, -1])  # the last iteration: the model's own dynamics
+    # the last iteration: the model's own dynamics (another model, so equal to rounding, not bit for bit)
+    np.testing.assert_allclose(end[2], unguided[0, -1], rtol=0, atol=1e-6)
     info = guided.plan(t, state, np.random.default_rng(0))
     assert info.iterations == 3 and info.best_cost <= info.nominal_cost
     guided.close()
