@@ -138,16 +138,17 @@ class ObjectGuidance:
         order = np.argsort(model.body_mocapid[mocap])
         self.mocap_pos0 = model.body_pos[mocap[order]].copy()
         self.mocap_quat0 = model.body_quat[mocap[order]].copy()
+        self._off = np.concatenate([self.active0, self.mocap_pos0.ravel(), self.mocap_quat0.ravel()])
         return model
 
     def off(self) -> np.ndarray:
         """(k,) the rollout's extra inputs with the weld off (every other equality as the model has it)."""
-        return np.concatenate([self.active0, self.mocap_pos0.ravel(), self.mocap_quat0.ravel()])
+        return self._off
 
     def inputs(self, window: slice, steps: int, weight: float) -> np.ndarray:
         """(steps, k) the extra inputs of the planning steps from ``window.start``: the weld active (at
         ``weight`` > 0, where :attr:`during` says) and the guide at the reference's object pose."""
-        out = np.broadcast_to(self.off(), (steps, len(self.off()))).copy()
+        out = np.tile(self._off, (steps, 1))
         if weight <= 0:
             return out
         rows = np.minimum(window.start + np.arange(steps), len(self.track.object_qpos) - 1)
