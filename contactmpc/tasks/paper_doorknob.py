@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from contactmpc.tasks.base import ObjectJoint
 from contactmpc.tasks.paper import PaperTask
+from contactmpc.validate import Ge, checked
 
 
 class PaperDoorknobTask(PaperTask):
@@ -19,6 +22,12 @@ class PaperDoorknobTask(PaperTask):
 
     Milestone: *pulled*: slid out to ``PULL_FRACTION`` of the reference's largest extent (about 25 cm),
     while held.
+
+    Args:
+        slide_friction: dry friction on the slide (N, MuJoCo's ``frictionloss``; not the authors'): the
+            authors' slide has none, so nothing stops the knob once the hand is off it. 0 (the default)
+            is their slide, the model unchanged.
+        **kwargs: :class:`~contactmpc.tasks.paper.PaperTask`'s.
     """
 
     name = "paper_doorknob"
@@ -38,19 +47,26 @@ class PaperDoorknobTask(PaperTask):
     # their "Recording" camera's direction, closer
     view = {"lookat": (-0.25, -0.65, 0.95), "distance": 0.8, "azimuth": 60.0, "elevation": -20.0}
 
+    @checked
+    def __init__(self, slide_friction: Annotated[float, Ge(0)] = 0.0, **kwargs) -> None:
+        self.slide_friction = float(slide_friction)
+        super().__init__(**kwargs)
+
     def add_objects(self, spec) -> None:
         self.add_floor(spec)
         mount = spec.worldbody.add_body(name="doorknob_attachment", pos=list(self.ATTACHMENT))
         knob = mount.add_body(
             name="doorknob_sim", pos=list(self.KNOB_POS), quat=list(self.KNOB_QUAT), gravcomp=1.0
         )
-        knob.add_joint(
+        slide = knob.add_joint(
             name="doorknob_slide",
             type=mujoco.mjtJoint.mjJNT_SLIDE,
             axis=[0, 0, 1],
             range=[0.0, 1.0],
             limited=mujoco.mjtLimited.mjLIMITED_TRUE,
         )
+        if self.slide_friction > 0:
+            slide.frictionloss = self.slide_friction
         self.add_visual(spec, knob, (0.8313, 0.686, 0.216, 1.0))
         geoms = (
             ("knob", mujoco.mjtGeom.mjGEOM_ELLIPSOID, [0.0325, 0.0325, 0.015], [0, 0, 0.021]),
