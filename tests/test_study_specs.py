@@ -317,6 +317,18 @@ def test_the_method_study_reads_the_replayed_releases_over_the_replays_near_thei
     )
     assert text.endswith("under the bound on 1 of 2.")
     assert spec.release_replays(table.iloc[:0]) == ""
+    # the own release on a slide with friction: its own sentence, over the same trials, not among the releases
+    rough = pd.DataFrame(
+        [(0, "recorded", 0.3, 0.0, 0.010), (1, "recorded", 0.4, 0.0, 0.030), (2, "recorded", 0.2, 0.0, 0.5)],
+        columns=["seed", "release", "let_go", "speed", "off"],
+    ).assign(bound=0.003, before=0.5, friction=0.5)
+    both = spec.release_replays(pd.concat([table.assign(friction=0.0, off=0.2), rough], ignore_index=True))
+    assert both.startswith(text[:-1])  # the frictionless replays read as before
+    assert both.endswith(
+        "with 0.5 N of dry friction (`task.slide_friction`, not the authors' model) lets go on 2 of 2, the "
+        "knob at 0 mm/s (median; 0), under the bound on 2 of 2, ending 20 mm from the reference's final "
+        "position (median; 10-30; the tolerance is 50 mm)."
+    )
 
 
 def test_fig3_counts_the_cells_a_sweep_plans_not_those_it_has_reached() -> None:
@@ -346,6 +358,30 @@ def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen
     assert "- stapler, completed: 1 of 2 held out against 10 of 10, -50 points" in text
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: trials([], [], []))
     assert text.startswith(spec.heldout(None, chosen).removesuffix("No such trial is kept yet.\n"))
+
+
+def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_slide(monkeypatch) -> None:
+    """rough_slide: per seed, how the trial on the slide with friction ended beside the trial of the same
+    seed on the authors' slide, and the counts with Barnard's test; without such a trial, a line that says
+    so."""
+    import pandas as pd
+
+    spec = Study("method").spec
+
+    def trials(seeds, done, clean, friction=None):
+        return pd.DataFrame({"task": "doorknob", "variant": spec.METHOD, "seed": seeds, "counted": True,
+                             "completed": done, "finished_cleanly": clean, "_final": 0.3,
+                             "cpu_seconds": 300.0, "task.slide_friction": friction})  # fmt: skip
+
+    chosen = trials(range(10), [True] * 10, [False] * 10)
+    rough = trials([0, 1, 2], [True, True, False], [True, True, False], 0.5).assign(_final=[0.01, 0.02, 0.2])
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough)
+    text = spec.rough_slide(None, chosen)
+    assert "| 0 | 0.5 | clean | 10 | done | 300 |" in text
+    assert "| 2 | 0.5 | failed | 200 | done | 300 |" in text
+    assert "- finished cleanly: 2 of 3 on the slide with friction, 0 of 3 on the authors' slide" in text
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough.iloc[:0])
+    assert spec.rough_slide(None, chosen).endswith("No such trial is kept yet.\n")
 
 
 def test_fig3_says_in_short_which_claim_holds_where() -> None:

@@ -6,8 +6,10 @@ recorded configuration 0.5 s before the contact span ends (velocities zeroed: th
 velocities, so a replay is near the trial, not the trial), the trial's recorded hand targets are replayed
 to the span's end, and then each release of :data:`RELEASES` is applied open-loop for 12 s. The knob's
 speed is read as the report's ``leaving_speed`` reads it (the mean speed from 0.2 to 1.2 s after the last
-sample at which a hand link touches it). Writes ``figures/release_replay.csv``, which the report reads (so a
-clone without the time series makes the same report):
+sample at which a hand link touches it). The trial's own release is replayed once more on a slide with
+:data:`FRICTION` N of dry friction (``task.slide_friction``, not the authors'). Writes
+``figures/release_replay.csv``, which the report reads (so a clone without the time series makes the same
+report):
 
     CONTACTMPC_PAPER_DATA=... python studies/method/release_replay.py
 """
@@ -34,6 +36,7 @@ BEFORE = 0.5  # s before the contact span ends that a replay starts
 AFTER = 12.0  # s of release replayed
 PLAN = 0.01  # s between the samples a replay reads the knob at (the planner's step)
 METHOD = "grasp_release_ahead_acquire"
+FRICTION = 0.5  # N of dry friction on the slide for the last replay (task.slide_friction)
 
 #: A release: the hand targets (J,) at ``s`` seconds after the span's end, given the targets the trial
 #: applied at the span's end (``held``), the measured hand configuration then (``q``), the flat hand's
@@ -68,17 +71,21 @@ RELEASES: dict[str, Release] = {
 }
 
 
-def scene_of(record: dict, paper_data: str):
-    """The trial's scene, built from its recorded config with the authors' data at ``paper_data``."""
+def scene_of(record: dict, paper_data: str, slide_friction: float = 0.0):
+    """The trial's scene, built from its recorded config with the authors' data at ``paper_data`` (and
+    ``slide_friction`` N of dry friction on the slide where it is not 0)."""
     cfg = OmegaConf.create(record["config"])
     cfg.task.paper_data = paper_data
+    if slide_friction:
+        cfg.task.slide_friction = slide_friction
     return instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))
 
 
-def replay(scene, series, span_end: float, release: Release) -> tuple[float, float, float] | None:
-    """``(let_go, speed, bound)``: when the hand last touches the knob (s after the span's end), the knob's
-    mean speed from 0.2 to 1.2 s after that (m/s) and the most it could keep and end within the task's
-    tolerance (m/s); ``None`` where the hand still holds it 1.2 s before the replay ends."""
+def replay(scene, series, span_end: float, release: Release) -> tuple[float, float, float, float] | None:
+    """``(let_go, speed, bound, off)``: when the hand last touches the knob (s after the span's end), the
+    knob's mean speed from 0.2 to 1.2 s after that (m/s), the most it could keep and end within the task's
+    tolerance (m/s), and how far from the reference's final position it is when the replay ends (m);
+    ``None`` where the hand still holds it 1.2 s before the replay ends."""
     m = scene.plant_model
     t, targets = series["time"], series["hand_target"]
     i0 = int(np.searchsorted(t, span_end - BEFORE))
@@ -116,7 +123,8 @@ def replay(scene, series, span_end: float, release: Release) -> tuple[float, flo
         return None
     speed = abs(np.interp(last + 1.2, times_a, knob_a) - np.interp(last + 0.2, times_a, knob_a))
     settle = scene.task.SETTLE_ARTICULATION
-    return last - span_end, float(speed), settle / float(t[-1] - last)
+    off = abs(knob_a[-1] - float(series["expected_object_qpos"][-1, 0]))
+    return last - span_end, float(speed), settle / float(t[-1] - last), float(off)
 
 
 def main() -> int:
@@ -130,14 +138,21 @@ def main() -> int:
         series_path = path.parent / "timeseries.npz"
         if not series_path.is_file() or method_name(record) != METHOD:
             continue
-        scene = scene_of(record, paper_data)
         series = np.load(series_path)
-        for name, release in RELEASES.items():
-            found = replay(scene, series, record["contact_span_end"], release)
-            let_go, speed, bound = found if found is not None else (np.nan, np.nan, np.nan)
+        runs = [(0.0, name, release) for name, release in RELEASES.items()] + [
+            (FRICTION, "recorded", RELEASES["recorded"])
+        ]
+        scenes = {f: scene_of(record, paper_data, f) for f in {f for f, _, _ in runs}}
+        for friction, name, release in runs:
+            found = replay(scenes[friction], series, record["contact_span_end"], release)
+            let_go, speed, bound, off = found if found is not None else (np.nan,) * 4
             rows.append({"record": path.parent.name, "seed": record["seed"], "release": name,
-                         "let_go": let_go, "speed": speed, "bound": bound, "before": BEFORE})  # fmt: skip
-            print(f"seed {record['seed']} {name}: let go {let_go:+.2f} s, {1e3 * speed:.1f} mm/s")
+                         "friction": friction, "let_go": let_go, "speed": speed, "bound": bound,
+                         "off": off, "before": BEFORE})  # fmt: skip
+            print(
+                f"seed {record['seed']} {name} (slide friction {friction:g} N): let go {let_go:+.2f} s, "
+                f"{1e3 * speed:.1f} mm/s, {1e3 * off:.0f} mm from the final position at the end"
+            )
     if not rows:
         print("release_replay: error: no doorknob trial of the method with its time series", file=sys.stderr)
         return 1
