@@ -417,12 +417,33 @@ def guidance_findings(screen: pd.DataFrame, method: pd.DataFrame | None = None) 
     )
 
 
-def method_frames(study) -> pd.DataFrame:
+#: Options that make a lever on top of the method itself (``SET=method_levers``): column, the method's
+#: value, the short name a lever's label gives it.
+METHOD_LEVER_KEYS = (("planner.acquire_until", 2.0, "until"), ("sampler.root_sigma2", 1e-4, "wristvar"))
+
+
+def method_lever(row: dict) -> str:
+    """A trial of the method's lever: each :data:`METHOD_LEVER_KEYS` option that differs from the method's
+    (``until3 wristvar0.0004``); ``""`` for the method itself."""
+    parts = []
+    for key, default, short in METHOD_LEVER_KEYS:
+        v = _value(row.get(key), default)
+        if v != default:
+            parts.append(f"{short}{v:g}" if isinstance(v, float) else f"{short}{v}")
+    return " ".join(parts)
+
+
+def method_frames(study, levers: bool = False) -> pd.DataFrame:
     """The method's stapler trials at plans every 170 ms (the calibrated loop): its screen trials
     (``SET=method``) and the method study's full trials (its records and its ``latency/`` runs), with
     ``where`` (``screen`` / ``full``), ``latency_ms`` and ``half`` (seeds 0-9, the method study's, or
-    10-19)."""
+    10-19). With ``levers``, the trials of levers on top of it instead (``SET=method_levers``), with
+    their ``method_lever`` (:func:`method_lever`)."""
     df = study.records("method", "method/latency")
+    if not len(df):
+        return df
+    df = df.assign(method_lever=[method_lever(r) for r in df.to_dict("records")])
+    df = df[df["method_lever"].ne("") if levers else df["method_lever"].eq("")]
     if not len(df):
         return df
     ours = np.array([method_name(r) == METHOD for r in df.to_dict("records")], bool)
@@ -458,6 +479,43 @@ def _screened_method(study) -> pd.DataFrame | None:
     """The method's screen trials (:func:`method_frames`), ``None`` without any."""
     df = method_frames(study)
     return df[df["where"] == "screen"] if len(df) else None
+
+
+def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
+    """Each lever on top of the method (``levers``: :func:`method_frames` with ``levers``) against the
+    method's own screen trials at the calibrated latency (``method``: :func:`method_frames`), on the seeds
+    both have: a table, and per lever the counts with Barnard's test, median TTF and the CPU-s ratio."""
+    levers = levers[levers["where"] == "screen"] if len(levers) else levers
+    if not len(levers):
+        return ""
+    base = method[(method["where"] == "screen") & (method["latency_ms"] == CALIBRATED_MS)]
+    names = sorted(set(levers["method_lever"]))
+    both = pd.concat(
+        [
+            base.assign(lever=METHOD),
+            *(levers[levers["method_lever"] == n].assign(lever=f"{METHOD} {n}") for n in names),
+        ]  # fmt: skip
+    )
+    lines = [
+        line
+        for n in names
+        if (line := _pair("paper_stapler", levers[levers["method_lever"] == n], base, f"`{n}`", "the method"))
+    ]
+    return (
+        "## Levers on top of the method\n\n"
+        f"`SET=method_levers`: the method (`{METHOD}`, its preset, {CALIBRATED_MS} ms) with one option "
+        "changed, on the stapler's screen, against the method's own screen trials (`SET=method`) on the "
+        "same seeds. "
+        "`until3`: the grasp's phase (the wrist sampled, 128 samples a plan) held to 3 s after the first "
+        "expected contact instead of 2 s (`planner.acquire_until=3.0 sampler.root_window=[-1.0,3.0]`: the "
+        "reference starts lifting the stapler 1.4-1.7 s after its first contact); `wristvar0.0004`: the "
+        "wrist's sampling variance on its slides four times the method's (`sampler.root_sigma2=4.0e-4`: "
+        "2 cm instead of 1). Neither changes what a plan costs.\n\n"
+        + table(both, [METHOD, *(f"{METHOD} {n}" for n in names)])
+        + "\n"
+        + "\n".join(lines)
+        + "\n"
+    )
 
 
 def method_section(df: pd.DataFrame) -> str:
@@ -583,4 +641,9 @@ def report(study) -> str:
         + findings(screen, full)
         + (f"\n{guided}" if (guided := guidance_findings(screen, _screened_method(study))) else "")
         + (f"\n{section}" if (section := method_section(method_frames(study))) else "")
+        + (
+            f"\n{section}"
+            if (section := method_levers_section(method_frames(study, levers=True), method_frames(study)))
+            else ""
+        )
     )
