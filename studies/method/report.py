@@ -580,8 +580,8 @@ def heldout(study, chosen: pd.DataFrame) -> str:
 
 ROUGH = "slide_friction"
 ROUGH_RUN = (
-    "python launch.py experiment=method task=paper_doorknob task.slide_friction=0.5 seed=N "
-    "hydra.sweep.dir=studies/method/slide_friction  # seeds 0-9, one launch a seed"
+    "for s in $(seq 0 9); do python launch.py experiment=method task=paper_doorknob task.slide_friction=0.5 "
+    f"seed=$s hydra.sweep.dir=studies/method/{ROUGH}; done"
 )
 
 
