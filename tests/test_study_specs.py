@@ -297,6 +297,30 @@ def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_tria
     assert spec.method_section(df[df["where"] == "full"]) == ""  # no screen trial yet: no section
 
 
+def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_the_same_seeds() -> None:
+    """method_lever names a trial by the options it changes on the method ("" for the method itself);
+    method_levers_section: a table row per lever and the method, and per lever its counts against the
+    method's at the calibrated latency on the seeds both have; no lever trial, no section."""
+    import pandas as pd
+
+    spec = Study("method_screen").spec
+    assert spec.method_lever({"planner.acquire_until": 3.0}) == "until3"
+    assert spec.method_lever({"sampler.root_sigma2": 4e-4}) == "wristvar0.0004"
+    assert spec.method_lever({"planner.acquire_until": float("nan"), "sampler.root_sigma2": None}) == ""
+    common = {"where": "screen", "latency_ms": spec.CALIBRATED_MS, "task": "paper_stapler", "status": "ok",
+              "ttf": 1.0, "cpu_seconds": 100.0}  # fmt: skip
+    method = pd.DataFrame([{**common, "seed": s, "lifted": s < 3, "completed": s < 3} for s in range(6)])
+    method = pd.concat([method, method.assign(latency_ms=60, lifted=False, completed=False)])
+    levers = pd.DataFrame([{**common, "seed": s, "lifted": True, "completed": True, "method_lever": "until3",
+                            "cpu_seconds": 150.0} for s in range(4)])  # fmt: skip
+    text = spec.method_levers_section(levers, method)
+    assert f"| {spec.METHOD} until3 | paper_stapler | 4 | 4/4 | 4/4 |" in text
+    assert f"| {spec.METHOD} | paper_stapler | 6 | 3/6 | 3/6 |" in text  # the calibrated latency's only
+    assert "- paper_stapler, `until3` against the method, seeds 0-3: lifted 4 of 4 against 3 of 4" in text
+    assert "CPU-s × 1.50" in text
+    assert spec.method_levers_section(levers.iloc[:0], method) == ""
+
+
 def test_the_method_study_reads_the_replayed_releases_over_the_replays_near_their_trials() -> None:
     """release_replays: a seed whose own release let go before the span's end in replay is left out; per
     release, how many let go, their median speed and how many stayed under the bound."""
