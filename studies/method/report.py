@@ -630,18 +630,33 @@ def rough_slide(study, chosen: pd.DataFrame) -> str:
                      f"{c['cpu_seconds'].dropna().median():.0f})")  # fmt: skip
     cols = ("seed", "slide friction (N)", "ended", "final error (mm)", "on the authors' slide: ended",
             "final error (mm)")  # fmt: skip
+    link = None
+    if study is not None:
+        paths = [Path(p).parent / "timeseries.npz" for p in g["record_path"]]
+        friction = ", ".join(f"{f:g}" for f in sorted({_friction(r) for r in g.to_dict("records")}))
+        link = study.draw(
+            "after_span_doorknob_slide_friction.png",
+            lambda path: after_span_figure(path, f"doorknob, slide friction {friction} N", g, "articulation"),
+            "the doorknob on a slide with friction: the object error after the hand lets go",
+            data=next((p for p in paths if not p.is_file()), None),
+        )
     return (
         head
         + pipe_table(cols, "rrlrlr", rows)
         + "\n*ended*: clean = finished cleanly, done = completed but not settled, failed = not completed.\n\n"
         + ";\n".join(lines)
         + ".\n"
+        + (f"\n{link}\n" if link else "")
     )
 
 
 def _friction(r: dict) -> float:
-    """The slide friction (N) a record's config gave its task (0: the authors' slide)."""
+    """The slide friction (N) a record's config gave its task (0: the authors' slide): its
+    ``task.slide_friction`` column where the records differ in it, else read from its record."""
     value = pd.to_numeric(pd.Series([r.get("task.slide_friction")]), errors="coerce").iloc[0]
+    if pd.isna(value) and r.get("record_path"):
+        task = json.loads(Path(r["record_path"]).read_text()).get("config", {}).get("task", {})
+        value = task.get("slide_friction", 0.0)
     return 0.0 if pd.isna(value) else float(value)
 
 
