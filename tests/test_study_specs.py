@@ -404,8 +404,15 @@ def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_
     assert "| 0 | 0.5 | clean | 10 | done | 300 |" in text
     assert "| 2 | 0.5 | failed | 200 | done | 300 |" in text
     assert "- finished cleanly: 2 of 3 on the slide with friction, 0 of 3 on the authors' slide" in text
+    summary = spec.rough_summary(object())
+    assert (
+        "`grasp_release_ahead_acquire` completes the doorknob 2 of 3 and finishes 2 of 3 cleanly" in summary
+    )
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough.iloc[:2])
+    assert spec.rough_summary(object()).startswith("\nThe doorknob's shortfall is the authors' frictionless")
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough.iloc[:0])
     assert spec.rough_slide(None, chosen).endswith("No such trial is kept yet.\n")
+    assert spec.rough_summary(object()) == ""
 
 
 def test_fig3_says_in_short_which_claim_holds_where() -> None:

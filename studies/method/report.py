@@ -650,6 +650,26 @@ def rough_slide(study, chosen: pd.DataFrame) -> str:
     )
 
 
+def rough_summary(study) -> str:
+    """One sentence for the findings: how the method's doorknob trials on a slide with friction
+    (:data:`ROUGH`) ended; ``""`` without any."""
+    df = frame(study, ROUGH) if study is not None else pd.DataFrame()
+    g = cell(df[df["counted"]], "doorknob", METHOD) if len(df) else df
+    if not len(g):
+        return ""
+    friction = ", ".join(f"{f:g}" for f in sorted({_friction(r) for r in g.to_dict("records")}))
+    k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
+    return (
+        f"\nThe doorknob's shortfall is the authors' frictionless slide: on a slide with {friction} N of dry "
+        f"friction (not the authors' model; *The doorknob on a slide with friction*) `{METHOD}` completes "
+        f"{of(k, n)} and finishes {of(c, n)} cleanly on seeds {seeds(g['seed'])}.\n"
+        if c == n
+        else f"\nOn a slide with {friction} N of dry friction (not the authors' model; *The doorknob on a "
+        f"slide with friction*) `{METHOD}` completes the doorknob {of(k, n)} and finishes {of(c, n)} "
+        f"cleanly on seeds {seeds(g['seed'])}.\n"
+    )
+
+
 def _friction(r: dict) -> float:
     """The slide friction (N) a record's config gave its task (0: the authors' slide): its
     ``task.slide_friction`` column where the records differ in it, else read from its record."""
@@ -1190,6 +1210,7 @@ def report(study) -> str:
         + missing(df)
         + "\n## What the records show\n\n"
         + findings(df)
+        + rough_summary(study)
         + f"\n*The seeds are not held out*: `{METHOD}`'s groups were chosen by what they did on these "
         "tasks at these seeds (the screen's seeds and the method's own trials), so its counts here are an "
         "optimistic estimate of what it does on seeds it was not chosen on; a held-out sweep (seeds 10-19, "
