@@ -318,6 +318,7 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert f"| {spec.METHOD} | paper_stapler | 6 | 3/6 | 3/6 |" in text  # the calibrated latency's only
     assert "- paper_stapler, `until3` against the method, seeds 0-3: lifted 4 of 4 against 3 of 4" in text
     assert "CPU-s × 1.50" in text
+    assert text.endswith("more often than the method on the same seeds (Barnard p < 0.05): none.\n")
     assert spec.method_levers_section(levers.iloc[:0], method) == ""
 
 

@@ -501,6 +501,18 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         for n in names
         if (line := _pair("paper_stapler", levers[levers["method_lever"] == n], base, f"`{n}`", "the method"))
     ]
+    better = []
+    for n in names:
+        a = counted(levers[levers["method_lever"] == n])
+        b = counted(base[base["seed"].isin(a["seed"])])
+        (ak, an), (bk, bn) = _k(a, "lifted"), _k(b, "lifted")
+        if an and bn and ak / an > bk / bn and completion_test(ak, an, bk, bn)[0] < 0.05:
+            better.append(f"`{n}`")
+    lines.append(
+        "Levers that lift the stapler more often than the method on the same seeds (Barnard p < 0.05): "
+        + (", ".join(better) if better else "none")
+        + "."
+    )
     return (
         "## Levers on top of the method\n\n"
         f"`SET=method_levers`: the method (`{METHOD}`, its preset, {CALIBRATED_MS} ms) with one option "
