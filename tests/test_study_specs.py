@@ -405,6 +405,18 @@ def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_
     assert "| 0 | 0.5 | clean | 10 | done | 300 |" in text
     assert "| 2 | 0.5 | failed | 200 | done | 300 |" in text
     assert "- finished cleanly: 2 of 3 on the slide with friction, 0 of 3 on the authors' slide" in text
+    assert spec.BASELINE not in text  # no trial of the paper's method on the rough slide: no such line
+    # the paper's method on the same slide: against its own trials on the authors' slide, and the method's
+    paper = rough.assign(variant=spec.BASELINE, finished_cleanly=[True, False, False])
+    with_paper = pd.concat([rough, paper], ignore_index=True)
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: with_paper)
+    both = spec.rough_slide(None, pd.concat([chosen, chosen.assign(variant=spec.BASELINE)]))
+    assert (
+        "- the paper's method (`full`) on the slide with friction, finished cleanly: 1 of 3 there, 0 of 3 on"
+        in both
+    )
+    assert f"- on the slide with friction, `{spec.METHOD}` against `full`, finished cleanly: 2 of 3" in both
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough)
     summary = spec.rough_summary(object())
     assert (
         "`grasp_release_ahead_acquire` completes the doorknob 2 of 3 and finishes 2 of 3 cleanly" in summary

@@ -612,22 +612,24 @@ def rough_slide(study, chosen: pd.DataFrame) -> str:
             f"| {theirs[0]} | {theirs[1]} |"
         )
     c = base.loc[base.index.intersection(g["seed"])]
-    lines = []
-    for what, col in (("completed", "completed"), ("finished cleanly", "finished_cleanly")):
-        a, b = int(g[col].sum()), int(c[col].sum())
-        line = f"- {what}: {of(a, len(g))} on the slide with friction"
-        if len(c):
-            d, lo, hi = newcombe(a, len(g), b, len(c))
-            p, _ = completion_test(a, len(g), b, len(c))
-            line += (
-                f", {of(b, len(c))} on the authors' slide on the same seeds: {100 * d:+.0f} points "
-                f"[{100 * lo:+.0f}, {100 * hi:+.0f}], Barnard p = {Fmt.p(p)}"
-            )
-        lines.append(line)
+    lines = _against(g, c, "on the slide with friction", "on the authors' slide")
     cpu = g["cpu_seconds"].dropna()
     if len(cpu):
         lines.append(f"- median CPU-s a trial: {cpu.median():.0f} (on the authors' slide "
                      f"{c['cpu_seconds'].dropna().median():.0f})")  # fmt: skip
+    paper = cell(ok, "doorknob", BASELINE)
+    if len(paper):  # the paper's method on the same slide: does settling need the method's release?
+        theirs = cell(counted(chosen), "doorknob", BASELINE).set_index("seed")
+        lines += [
+            f"- the paper's method (`{BASELINE}`) on the slide with friction, " + line[2:]
+            for line in _against(
+                paper, theirs.loc[theirs.index.intersection(paper["seed"])], "there", "on the authors' slide"
+            )  # fmt: skip
+        ]
+        lines += [
+            f"- on the slide with friction, `{METHOD}` against `{BASELINE}`, " + line[2:]
+            for line in _against(g[g["seed"].isin(paper["seed"])], paper, f"`{METHOD}`", f"`{BASELINE}`")
+        ]
     cols = ("seed", "slide friction (N)", "ended", "final error (mm)", "on the authors' slide: ended",
             "final error (mm)")  # fmt: skip
     link = None
@@ -648,6 +650,24 @@ def rough_slide(study, chosen: pd.DataFrame) -> str:
         + ".\n"
         + (f"\n{link}\n" if link else "")
     )
+
+
+def _against(a: pd.DataFrame, b: pd.DataFrame, name_a: str, name_b: str) -> list[str]:
+    """Bullets, completed and finished cleanly: ``a``'s count (``name_a``), and where ``b`` has trials its
+    count on the same seeds (``name_b``), the difference with Newcombe's interval and Barnard's p."""
+    lines = []
+    for what, col in (("completed", "completed"), ("finished cleanly", "finished_cleanly")):
+        k, m = int(a[col].sum()), int(b[col].sum())
+        line = f"- {what}: {of(k, len(a))} {name_a}"
+        if len(b):
+            d, lo, hi = newcombe(k, len(a), m, len(b))
+            p, _ = completion_test(k, len(a), m, len(b))
+            line += (
+                f", {of(m, len(b))} {name_b} on the same seeds: {100 * d:+.0f} points "
+                f"[{100 * lo:+.0f}, {100 * hi:+.0f}], Barnard p = {Fmt.p(p)}"
+            )
+        lines.append(line)
+    return lines
 
 
 def rough_summary(study) -> str:
