@@ -596,7 +596,8 @@ def rough_slide(study, chosen: pd.DataFrame) -> str:
         "(*Where the method falls short*). To tell that apart from the method, the method's doorknob trials "
         f"are run again on a slide with dry friction (`task.slide_friction`, MuJoCo's `frictionloss`, in "
         f"the plant and the planner's model alike; not the authors' model), kept apart in `{ROUGH}/` "
-        f"(`{ROUGH_RUN}`). These trials do not count for the target, which is on the authors' model.\n\n"
+        f"(`{ROUGH_RUN}`; the paper's method beside it with `variant={BASELINE}`). These trials do not count "
+        "for the target, which is on the authors' model.\n\n"
     )
     if not len(ok):
         return head + "No such trial is kept yet.\n"
