@@ -405,7 +405,7 @@ def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_
     assert "| 0 | 0.5 | clean | 10 | done | 300 |" in text
     assert "| 2 | 0.5 | failed | 200 | done | 300 |" in text
     assert "- finished cleanly: 2 of 3 on the slide with friction, 0 of 3 on the authors' slide" in text
-    assert spec.BASELINE not in text  # no trial of the paper's method on the rough slide: no such line
+    assert "the paper's method (`full`)" not in text  # no trial of it on the rough slide: no such line
     # the paper's method on the same slide: against its own trials on the authors' slide, and the method's
     paper = rough.assign(variant=spec.BASELINE, finished_cleanly=[True, False, False])
     with_paper = pd.concat([rough, paper], ignore_index=True)
