@@ -367,14 +367,19 @@ def findings(screen: pd.DataFrame, full: pd.DataFrame) -> str:
     return "\n".join(out) + "\n"
 
 
+def _shared(a: pd.DataFrame, b: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, list[int]]:
+    """``a`` and ``b``'s trials that count, on the seeds both have, and those seeds."""
+    a, b = counted(a), counted(b)
+    both = sorted(set(a["seed"]) & set(b["seed"]))
+    return a[a["seed"].isin(both)], b[b["seed"].isin(both)], both
+
+
 def _pair(task: str, a: pd.DataFrame, b: pd.DataFrame, name_a: str, name_b: str) -> str | None:
     """One comparison line: ``a`` against ``b`` on the seeds both have (lifted and completed with Barnard's
     test, median TTF, CPU-s ratio); ``None`` where they share no seed."""
-    a, b = counted(a), counted(b)
-    both = sorted(set(a["seed"]) & set(b["seed"]))
+    a, b, both = _shared(a, b)
     if not both:
         return None
-    a, b = a[a["seed"].isin(both)], b[b["seed"].isin(both)]
     parts = []
     for what in ("lifted", "completed"):
         (ak, an), (bk, bn) = _k(a, what), _k(b, what)
@@ -391,7 +396,8 @@ def guidance_findings(screen: pd.DataFrame, method: pd.DataFrame | None = None) 
     """Contact guidance (a lever named ``… guide<timeconst> …``) against the same lever without it, per task
     on the seeds both have (lifted and completed counts, Barnard's test of each, median TTF, the CPU-s
     ratio); where the lever builds on the method's groups (``SET=guidance_method``), both also against the
-    method in the screen at the calibrated latency (``method``: :func:`method_frames`'s screen rows)."""
+    method in the screen at the calibrated latency (``method``: the screen rows of :func:`method_frames`'s
+    ``method``)."""
     out = []
     the_method = f"the method (`{METHOD}`: one iteration of 128 samples while contact is acquired)"
     for name in sorted({n for n in screen["lever"] if " guide" in n}):
@@ -433,19 +439,16 @@ def method_lever(row: dict) -> str:
     return " ".join(parts)
 
 
-def method_frames(study, levers: bool = False) -> pd.DataFrame:
+def method_frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The method's stapler trials at plans every 170 ms (the calibrated loop): its screen trials
     (``SET=method``) and the method study's full trials (its records and its ``latency/`` runs), with
     ``where`` (``screen`` / ``full``), ``latency_ms`` and ``half`` (seeds 0-9, the method study's, or
-    10-19). With ``levers``, the trials of levers on top of it instead (``SET=method_levers``), with
-    their ``method_lever`` (:func:`method_lever`)."""
+    10-19); and, apart, the trials of levers on top of it (``SET=method_levers``), with their
+    ``method_lever`` (:func:`method_lever`). The records are read once for both."""
     df = study.records("method", "method/latency")
     if not len(df):
-        return df
+        return df, df
     df = df.assign(method_lever=[method_lever(r) for r in df.to_dict("records")])
-    df = df[df["method_lever"].ne("") if levers else df["method_lever"].eq("")]
-    if not len(df):
-        return df
     ours = np.array([method_name(r) == METHOD for r in df.to_dict("records")], bool)
     df = df[(df["task"] == "paper_stapler").to_numpy() & ours]
     df = df[(df["replan_interval"] - 0.17).abs() < 1e-6].copy()  # not the runs planning every 60 ms
@@ -457,7 +460,8 @@ def method_frames(study, levers: bool = False) -> pd.DataFrame:
     df["latency_ms"] = (1e3 * df["latency"]).round().astype(int)
     df["half"] = np.where(df["seed"].isin(CHOSEN_ON), HALVES[0], HALVES[1])
     df["lifted"] = df["milestone_lifted"].astype(object)
-    return df
+    lever = df["method_lever"].ne("")
+    return df[~lever], df[lever]
 
 
 #: The two halves of the screen's seeds.
@@ -475,36 +479,26 @@ def _compared(what: str, a: tuple[int, int], b: tuple[int, int]) -> str:
     )
 
 
-def _screened_method(study) -> pd.DataFrame | None:
-    """The method's screen trials (:func:`method_frames`), ``None`` without any."""
-    df = method_frames(study)
-    return df[df["where"] == "screen"] if len(df) else None
+def _screened(method: pd.DataFrame) -> pd.DataFrame | None:
+    """The method's screen trials (of :func:`method_frames`'s ``method``), ``None`` without any."""
+    return method[method["where"] == "screen"] if len(method) else None
 
 
 def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
-    """Each lever on top of the method (``levers``: :func:`method_frames` with ``levers``) against the
-    method's own screen trials at the calibrated latency (``method``: :func:`method_frames`), on the seeds
-    both have: a table, and per lever the counts with Barnard's test, median TTF and the CPU-s ratio."""
+    """Each lever on top of the method (``levers``, of :func:`method_frames`) against the method's own
+    screen trials at the calibrated latency (``method``, of :func:`method_frames`), on the seeds both have:
+    a table, and per lever the counts with Barnard's test, median TTF and the CPU-s ratio."""
     levers = levers[levers["where"] == "screen"] if len(levers) else levers
     if not len(levers):
         return ""
     base = method[(method["where"] == "screen") & (method["latency_ms"] == CALIBRATED_MS)]
-    names = sorted(set(levers["method_lever"]))
-    both = pd.concat(
-        [
-            base.assign(lever=METHOD),
-            *(levers[levers["method_lever"] == n].assign(lever=f"{METHOD} {n}") for n in names),
-        ]  # fmt: skip
-    )
-    lines = [
-        line
-        for n in names
-        if (line := _pair("paper_stapler", levers[levers["method_lever"] == n], base, f"`{n}`", "the method"))
-    ]
-    better = []
-    for n in names:
-        a = counted(levers[levers["method_lever"] == n])
-        b = counted(base[base["seed"].isin(a["seed"])])
+    by = dict(tuple(levers.groupby("method_lever", sort=True)))
+    both = pd.concat([base.assign(lever=METHOD), *(g.assign(lever=f"{METHOD} {n}") for n, g in by.items())])
+    lines, better = [], []
+    for n, g in by.items():
+        if line := _pair("paper_stapler", g, base, f"`{n}`", "the method"):
+            lines.append(line)
+        a, b, _ = _shared(g, base)
         (ak, an), (bk, bn) = _k(a, "lifted"), _k(b, "lifted")
         if an and bn and ak / an > bk / bn and completion_test(ak, an, bk, bn)[0] < 0.05:
             better.append(f"`{n}`")
@@ -523,7 +517,7 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         "reference starts lifting the stapler 1.4-1.7 s after its first contact); `wristvar0.0004`: the "
         "wrist's sampling variance on its slides four times the method's (`sampler.root_sigma2=4.0e-4`: "
         "2 cm instead of 1). Neither changes what a plan costs.\n\n"
-        + table(both, [METHOD, *(f"{METHOD} {n}" for n in names)])
+        + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])
         + "\n"
         + "\n".join(lines)
         + "\n"
@@ -591,6 +585,7 @@ def report(study) -> str:
     common = spec["common"]
     before, after = common["job.start_before_contact"], common["job.end_after_contact"]
     screen, full = frames(study)
+    method, levers = method_frames(study)
     paper = yaml.safe_load((REPO / "conf" / "preset" / "paper.yaml").read_text())["planner"]["num_samples"]
     it = screen[screen["planner.iterations"].fillna(1).astype(float) > 1]
     n_it, n_s = (int(it["planner.iterations"].max()), int(it["num_samples"].max())) if len(it) else (0, 0)
@@ -651,11 +646,7 @@ def report(study) -> str:
         + "\n## What the records show\n\n"
         + verdict(screen, full)
         + findings(screen, full)
-        + (f"\n{guided}" if (guided := guidance_findings(screen, _screened_method(study))) else "")
-        + (f"\n{section}" if (section := method_section(method_frames(study))) else "")
-        + (
-            f"\n{section}"
-            if (section := method_levers_section(method_frames(study, levers=True), method_frames(study)))
-            else ""
-        )
+        + (f"\n{guided}" if (guided := guidance_findings(screen, _screened(method))) else "")
+        + (f"\n{section}" if (section := method_section(method)) else "")
+        + (f"\n{section}" if (section := method_levers_section(levers, method)) else "")
     )
