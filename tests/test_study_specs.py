@@ -401,7 +401,7 @@ def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_
     chosen = trials(range(10), [True] * 10, [False] * 10)
     rough = trials([0, 1, 2], [True, True, False], [True, True, False], 0.5).assign(_final=[0.01, 0.02, 0.2])
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough)
-    text = spec.rough_slide(None, chosen)
+    text = spec.rough_slide(spec.rough_frame(None), chosen)
     assert "| 0 | 0.5 | clean | 10 | done | 300 |" in text
     assert "| 2 | 0.5 | failed | 200 | done | 300 |" in text
     assert "- finished cleanly: 2 of 3 on the slide with friction, 0 of 3 on the authors' slide" in text
@@ -410,22 +410,23 @@ def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_
     paper = rough.assign(variant=spec.BASELINE, finished_cleanly=[True, False, False])
     with_paper = pd.concat([rough, paper], ignore_index=True)
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: with_paper)
-    both = spec.rough_slide(None, pd.concat([chosen, chosen.assign(variant=spec.BASELINE)]))
+    both = spec.rough_slide(spec.rough_frame(None), pd.concat([chosen, chosen.assign(variant=spec.BASELINE)]))
     assert (
         "- the paper's method (`full`) on the slide with friction, finished cleanly: 1 of 3 there, 0 of 3 on"
         in both
     )
     assert f"- on the slide with friction, `{spec.METHOD}` against `full`, finished cleanly: 2 of 3" in both
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough)
-    summary = spec.rough_summary(object())
+    summary = spec.rough_summary(spec.rough_frame(None))
     assert (
         "`grasp_release_ahead_acquire` completes the doorknob 2 of 3 and finishes 2 of 3 cleanly" in summary
     )
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough.iloc[:2])
-    assert spec.rough_summary(object()).startswith("\nThe doorknob's shortfall is the authors' frictionless")
+    summary = spec.rough_summary(spec.rough_frame(None))
+    assert summary.startswith("\nThe doorknob's shortfall is the authors' frictionless")
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough.iloc[:0])
-    assert spec.rough_slide(None, chosen).endswith("No such trial is kept yet.\n")
-    assert spec.rough_summary(object()) == ""
+    assert spec.rough_slide(spec.rough_frame(None), chosen).endswith("No such trial is kept yet.\n")
+    assert spec.rough_summary(spec.rough_frame(None)) == ""
 
 
 def test_fig3_says_in_short_which_claim_holds_where() -> None:

@@ -585,12 +585,24 @@ ROUGH_RUN = (
 )
 
 
-def rough_slide(study, chosen: pd.DataFrame) -> str:
-    """The method on the doorknob with dry friction on its slide (:data:`ROUGH`: ``task.slide_friction``,
-    not the authors' model), per seed beside its trials on the authors' frictionless slide (``chosen``:
-    the sweep's) on the same seeds, with the difference in finishing cleanly and Barnard's test."""
+def rough_frame(study) -> pd.DataFrame:
+    """The doorknob trials that count on a slide with dry friction (:data:`ROUGH`), each with its
+    ``friction`` (N, :func:`_friction`)."""
     df = frame(study, ROUGH)
     ok = df[df["counted"] & df["task"].eq("doorknob")] if len(df) else df
+    return ok.assign(friction=[_friction(r) for r in ok.to_dict("records")])
+
+
+def _frictions(g: pd.DataFrame) -> str:
+    """The slide frictions of trials ``g`` (:func:`rough_frame`'s), as text: ``0.5``, or ``0.5, 1``."""
+    return ", ".join(f"{f:g}" for f in sorted(set(g["friction"])))
+
+
+def rough_slide(ok: pd.DataFrame, chosen: pd.DataFrame, study=None) -> str:
+    """The method on the doorknob with dry friction on its slide (``ok``: :func:`rough_frame`;
+    ``task.slide_friction``, not the authors' model), per seed beside its trials on the authors'
+    frictionless slide (``chosen``: the sweep's) on the same seeds, with the difference in finishing
+    cleanly and Barnard's test; the figure of the knob after the hand lets go where ``study`` is given."""
     head = (
         "The doorknob's trials do not settle because nothing stops the authors' knob once the hand is off it "
         "(*Where the method falls short*). To tell that apart from the method, the method's doorknob trials "
@@ -609,7 +621,7 @@ def rough_slide(study, chosen: pd.DataFrame) -> str:
         b = base.loc[r["seed"]] if r["seed"] in base.index else None
         theirs = ("", "") if b is None else (ended(b), f"{1e3 * b['_final']:.0f}")
         rows.append(
-            f"| {r['seed']} | {_friction(r):g} | {ended(r)} | {1e3 * r['_final']:.0f} "
+            f"| {r['seed']} | {r['friction']:g} | {ended(r)} | {1e3 * r['_final']:.0f} "
             f"| {theirs[0]} | {theirs[1]} |"
         )
     c = base.loc[base.index.intersection(g["seed"])]
@@ -636,10 +648,10 @@ def rough_slide(study, chosen: pd.DataFrame) -> str:
     link = None
     if study is not None:
         paths = [Path(p).parent / "timeseries.npz" for p in g["record_path"]]
-        friction = ", ".join(f"{f:g}" for f in sorted({_friction(r) for r in g.to_dict("records")}))
+        title = f"doorknob, slide friction {_frictions(g)} N"
         link = study.draw(
             "after_span_doorknob_slide_friction.png",
-            lambda path: after_span_figure(path, f"doorknob, slide friction {friction} N", g, "articulation"),
+            lambda path: after_span_figure(path, title, g, "articulation"),
             "the doorknob on a slide with friction: the object error after the hand lets go",
             data=next((p for p in paths if not p.is_file()), None),
         )
@@ -671,14 +683,13 @@ def _against(a: pd.DataFrame, b: pd.DataFrame, name_a: str, name_b: str) -> list
     return lines
 
 
-def rough_summary(study) -> str:
+def rough_summary(ok: pd.DataFrame) -> str:
     """One sentence for the findings: how the method's doorknob trials on a slide with friction
-    (:data:`ROUGH`) ended; ``""`` without any."""
-    df = frame(study, ROUGH) if study is not None else pd.DataFrame()
-    g = cell(df[df["counted"]], "doorknob", METHOD) if len(df) else df
+    (``ok``: :func:`rough_frame`) ended; ``""`` without any."""
+    g = cell(ok, "doorknob", METHOD) if len(ok) else ok
     if not len(g):
         return ""
-    friction = ", ".join(f"{f:g}" for f in sorted({_friction(r) for r in g.to_dict("records")}))
+    friction = _frictions(g)
     k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
     return (
         f"\nThe doorknob's shortfall is the authors' frictionless slide: on a slide with {friction} N of dry "
@@ -1218,6 +1229,7 @@ def findings(df: pd.DataFrame) -> str:
 
 def report(study) -> str:
     df = frame(study)
+    rough = rough_frame(study)
     ok = counted(df)
     side, notes = paired(df)
     per_seed = release.paired_markdown(ok, error="final", order=ORDER, unpaired=True) if len(ok) else ""
@@ -1231,7 +1243,7 @@ def report(study) -> str:
         + missing(df)
         + "\n## What the records show\n\n"
         + findings(df)
-        + rough_summary(study)
+        + rough_summary(rough)
         + f"\n*The seeds are not held out*: `{METHOD}`'s groups were chosen by what they did on these "
         "tasks at these seeds (the screen's seeds and the method's own trials), so its counts here are an "
         "optimistic estimate of what it does on seeds it was not chosen on; a held-out sweep (seeds 10-19, "
@@ -1262,7 +1274,7 @@ def report(study) -> str:
         + "\n## On seeds it was not chosen on\n\n"
         + heldout(study, df)
         + "\n## The doorknob on a slide with friction\n\n"
-        + rough_slide(study, df)
+        + rough_slide(rough, df, study)
         + "\n## Online, in wall-clock time\n\n"
         + online(study)
         + "\n## At a shorter latency\n\n"
