@@ -13,6 +13,11 @@ PY=${PY:-python}
 COMMON=(preset=paper_32samples fidelity=paper planner.nthread=1 job.progress=false
         job.start_before_contact=3.0 job.end_after_contact=4.0 hydra/launcher=basic
         "hydra.sweep.dir=$OUT" task=paper_stapler,paper_bottle)
+# the method's point: its preset (paper_32samples_calibrated) on the stapler (or TASKS)
+at_method_point() {
+  COMMON=("${COMMON[@]/preset=paper_32samples/preset=paper_32samples_calibrated}")
+  COMMON=("${COMMON[@]/task=paper_stapler,paper_bottle/task=${TASKS:-paper_stapler}}")
+}
 # SET=full (default): the levers on top of the paper's method; SET=clearance: on top of wrist_clearance,
 # with the clearance baseline at the paper point's 128 samples (a second pair to check the screen's ranking
 # against full trials: the stapler study's 5 of 6 at 128 samples against 2 of 6 at 32)
@@ -52,15 +57,13 @@ LEVERS=(
   "variant=grasp_release_ahead planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01 guidance=object"
   "variant=grasp_release_ahead planner.iterations=4 planner.anneal=0.1 planner.early_stop=0.01"
 )
-COMMON=("${COMMON[@]/preset=paper_32samples/preset=paper_32samples_calibrated}")
-COMMON=("${COMMON[@]/task=paper_stapler,paper_bottle/task=${TASKS:-paper_stapler}}")
+at_method_point
 elif [[ ${SET:-full} == method ]]; then
 LEVERS=(
   "variant=grasp_release_ahead_acquire"
   "variant=grasp_release_ahead_acquire planner.latency=0.06 planner.replan_period=0.17"
 )
-COMMON=("${COMMON[@]/preset=paper_32samples/preset=paper_32samples_calibrated}")
-COMMON=("${COMMON[@]/task=paper_stapler,paper_bottle/task=${TASKS:-paper_stapler}}")
+at_method_point
 # SET=method_levers: levers on top of the method itself, on the stapler at the calibrated latency, against the
 # method's own screen trials (SET=method): the grasp's phase (the wrist sampled, 128 samples a plan) held 1 s
 # longer, to 3 s after the first contact (the reference starts lifting at 1.4-1.7 s); the wrist's sampling
@@ -70,8 +73,7 @@ LEVERS=(
   "variant=grasp_release_ahead_acquire planner.acquire_until=3.0 sampler.root_window=[-1.0,3.0]"
   "variant=grasp_release_ahead_acquire sampler.root_sigma2=4.0e-4"
 )
-COMMON=("${COMMON[@]/preset=paper_32samples/preset=paper_32samples_calibrated}")
-COMMON=("${COMMON[@]/task=paper_stapler,paper_bottle/task=${TASKS:-paper_stapler}}")
+at_method_point
 else
 LEVERS=(
   "variant=full"
