@@ -307,6 +307,8 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert spec.method_lever({"planner.acquire_until": 3.0}) == "until3"
     assert spec.method_lever({"sampler.root_sigma2": 4e-4}) == "wristvar0.0004"
     assert spec.method_lever({"planner.acquire_until": float("nan"), "sampler.root_sigma2": None}) == ""
+    assert spec.method_lever({"cost.lambda_c": 3.0, "cost.surface_weight": 0.0}) == "contact3"
+    assert spec.method_lever({"cost.lambda_o": 1.0, "cost.surface_weight": 1.0}) == "surface1"
     common = {"where": "screen", "latency_ms": spec.CALIBRATED_MS, "task": "paper_stapler", "status": "ok",
               "ttf": 1.0, "cpu_seconds": 100.0}  # fmt: skip
     method = pd.DataFrame([{**common, "seed": s, "lifted": s < 3, "completed": s < 3} for s in range(6)])
@@ -319,6 +321,7 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert "- paper_stapler, `until3` against the method, seeds 0-3: lifted 4 of 4 against 3 of 4" in text
     assert "CPU-s × 1.50" in text
     assert text.endswith("more often than the method on the same seeds (Barnard p < 0.05): none.\n")
+    assert "`until3`: the grasp's phase" in text and "`contact3`" not in text  # only the levers it shows
     assert spec.method_levers_section(levers.iloc[:0], method) == ""
 
 

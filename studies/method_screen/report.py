@@ -425,7 +425,28 @@ def guidance_findings(screen: pd.DataFrame, method: pd.DataFrame | None = None) 
 
 #: Options that make a lever on top of the method itself (``SET=method_levers``): column, the method's
 #: value, the short name a lever's label gives it.
-METHOD_LEVER_KEYS = (("planner.acquire_until", 2.0, "until"), ("sampler.root_sigma2", 1e-4, "wristvar"))
+METHOD_LEVER_KEYS = (
+    ("planner.acquire_until", 2.0, "until"),
+    ("sampler.root_sigma2", 1e-4, "wristvar"),
+    ("cost.lambda_c", 1.0, "contact"),
+    ("cost.lambda_o", 1.0, "object"),
+    ("cost.surface_weight", 0.0, "surface"),
+)
+
+#: What each lever on top of the method is, by its name's key (:data:`METHOD_LEVER_KEYS`' short names).
+METHOD_LEVER_TEXT = {
+    "until": "`until3`: the grasp's phase (the wrist sampled, 128 samples a plan) held to 3 s after the "
+    "first expected contact instead of 2 s (`planner.acquire_until=3.0 sampler.root_window=[-1.0,3.0]`: the "
+    "reference starts lifting the stapler 1.4-1.7 s after its first contact)",
+    "wristvar": "`wristvar0.0004`: the wrist's sampling variance on its slides four times the method's "
+    "(`sampler.root_sigma2=4.0e-4`: 2 cm instead of 1)",
+    "contact": "`contact3`: the contact term weighted three times the method's (`cost.lambda_c=3.0`; the "
+    "clearance term, weighted by it too, with it)",
+    "object": "`object3`: the object term weighted three times the method's (`cost.lambda_o=3.0`)",
+    "surface": "`surface1`: the surface term on top of the clearance term (`cost.surface_weight=1.0`: each "
+    "link whose contact is expected pulled onto the stapler wherever it touches it, read from the clearance "
+    "term's distance sensors)",
+}
 
 
 def method_lever(row: dict) -> str:
@@ -494,6 +515,9 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
     base = method[(method["where"] == "screen") & (method["latency_ms"] == CALIBRATED_MS)]
     by = dict(tuple(levers.groupby("method_lever", sort=True)))
     both = pd.concat([base.assign(lever=METHOD), *(g.assign(lever=f"{METHOD} {n}") for n, g in by.items())])
+    shown = {
+        short for _, _, short in METHOD_LEVER_KEYS if any(w.startswith(short) for n in by for w in n.split())
+    }
     lines, better = [], []
     for n, g in by.items():
         if line := _pair("paper_stapler", g, base, f"`{n}`", "the method"):
@@ -512,11 +536,13 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         f"`SET=method_levers`: the method (`{METHOD}`, its preset, {CALIBRATED_MS} ms) with one option "
         "changed, on the stapler's screen, against the method's own screen trials (`SET=method`) on the "
         "same seeds. "
-        "`until3`: the grasp's phase (the wrist sampled, 128 samples a plan) held to 3 s after the first "
-        "expected contact instead of 2 s (`planner.acquire_until=3.0 sampler.root_window=[-1.0,3.0]`: the "
-        "reference starts lifting the stapler 1.4-1.7 s after its first contact); `wristvar0.0004`: the "
-        "wrist's sampling variance on its slides four times the method's (`sampler.root_sigma2=4.0e-4`: "
-        "2 cm instead of 1). Neither changes what a plan costs.\n\n"
+        + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
+        + (
+            ". Only `until3` changes how many rollouts a plan runs (128 for a second longer)"
+            if "until" in shown
+            else ""
+        )
+        + ".\n\n"
         + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])
         + "\n"
         + "\n".join(lines)
