@@ -53,6 +53,7 @@ LABELS = (
     "compensation",
     "effort",
     "place",
+    "pacing",
     "preset",
     "experiment",
     "perturbation",

@@ -83,6 +83,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "compensation": None,
     "effort": None,
     "place": None,
+    "pacing": None,
     "hand": None,
     "cost": None,
     "sampler": None,

@@ -42,7 +42,7 @@ from tqdm.auto import tqdm
 
 from contactmpc.control.planners.base import PlanInfo
 from contactmpc.trial import Trial, TrialLog
-from contactmpc.validate import Ge, Gt, checked
+from contactmpc.validate import ConfigError, Ge, Gt, checked
 
 MIN_SLEEP = 1e-3
 """Wall seconds: the plant sleeps only when it is at least this far ahead of its schedule."""
@@ -124,6 +124,11 @@ class OnlineLoop:
         min_interval: Annotated[float, Ge(0)] = 0.0,
         apply_after: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
+        if trial.planner.pace_lag is not None:
+            raise ConfigError(
+                "planner.pace_lag: a paced reference runs in simulated trials only, not in job=online "
+                "(pacing=none)"
+            )
         self.min_interval = float(min_interval)
         self.apply_after = float(apply_after)
         self.trial = trial

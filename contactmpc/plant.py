@@ -146,11 +146,16 @@ class Plant:
             # MuJoCo resets a diverged plant (d.time restarts): name the control time
             raise PlantDiverged(f"plant diverged between t={t0:.3f}s and t={t1:.3f}s", t0)
 
-    def log(self, log: TrialLog, t: float, target: np.ndarray, info: PlanInfo) -> None:
+    def log(
+        self, log: TrialLog, t: float, target: np.ndarray, info: PlanInfo, reference_time: float | None = None
+    ) -> None:
         """Append the row of control time ``t`` to ``log``: the plant's state, the joint ``target`` (J,)
-        sent, the reference there and the tracking errors, and what the planning iteration in use did."""
+        sent, the reference there and the tracking errors, and what the planning iteration in use did.
+        With ``reference_time`` (a paced reference, ``planner.pace_lag``) the reference is read there, and
+        the row has it (``reference_time``)."""
         scene, tr, d = self.scene, self.track, self.data
-        i = tr.index(t)
+        i = tr.index(t if reference_time is None else reference_time)
+        paced = {} if reference_time is None else {"reference_time": reference_time}
         qo = scene.object_qpos(d)
         err = scene.task.layout.error(qo, tr.object_qpos[i])
         log.append(
@@ -165,6 +170,7 @@ class Plant:
             object_position_error=err.position,
             object_rotation_error=err.rotation,
             object_articulation_error=err.articulation,
+            **paced,
             **_plan_columns(info),
         )
 

@@ -121,6 +121,9 @@ class Trial:
         self.progress = progress
         plant_dt = scene.plant_model.opt.timestep
         check_planner_timing(scene, planner)
+        if planner.pace_lag is not None:  # a paced reference may fall pace_budget behind control time
+            slowed = reference.duration * scene.task.time_scale
+            duration = (slowed if duration is None else duration) + planner.pace_budget
         self.problem = Problem.build(
             scene, reference, space, cost, planner.horizon, num_control_points, duration
         )
@@ -185,6 +188,7 @@ class Trial:
                     seen, earlier = (seen if earlier is None else earlier), seen.copy()
                 if lag:  # the previous plan's targets until this one takes effect
                     previous = planner.targets(t + offsets[:lag])
+                at = planner.reference_time(t) if planner.pace_lag is not None else None
                 info = planner.plan(t, seen, rng, ahead=lag * dt)
                 if not lag:
                     targets = planner.targets(t + offsets)
@@ -192,7 +196,7 @@ class Trial:
                     targets = np.concatenate([previous, planner.targets(t + offsets[lag:])])
                 else:  # continuous replanning: this plan takes effect when the next one starts
                     targets = previous
-                plant.log(log, t, targets[0], info)
+                plant.log(log, t, targets[0], info, at)
                 for j in range(min(per_plan, n_steps - k)):
                     plant.step(targets[j], t + j * dt, t + (j + 1) * dt)
                 plant.check(t, (k + min(per_plan, n_steps - k)) * dt)

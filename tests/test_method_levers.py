@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -336,3 +337,99 @@ def test_guidance_runs_in_a_trial(tmp_path, late_contact_reference):
     record = json.loads(run_job(overrides, tmp_path).read_text())
     assert record["status"] == "ok"
     assert record["config"]["planner"]["guidance"]["_target_"] == "contactmpc.control.guidance.ObjectGuidance"
+
+
+def test_pacing_holds_the_reference_in_the_span_while_the_object_lags_up_to_its_budget(scene_for):
+    """planner.pace_lag: the reference's clock holds (rate 0) from where a plan takes effect while the
+    reference expects contact and the object is more than pace_lag from the reference's; it runs on once the
+    reference is pace_budget behind, outside the span, and with the object where the reference has it. Off:
+    the reference's time is control time itself."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:4] = False  # first expected contact at 0.4 s of the demonstration: 0.8 s of control
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    off = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1)
+    off.bind(problem)
+    assert off.reference_time(1.234) == 1.234
+    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, pace_lag=0.02, pace_budget=0.5)
+    planner.bind(problem)
+    m = scene.planner_model
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    at_rest = problem.track.object_qpos[0]
+    lagging = at_rest.copy()
+    lagging[2] -= 0.05  # 5 cm below the reference's object
+
+    def at(qo):
+        state[1 + scene.index.object_qpos] = qo
+        return state
+
+    planner.pace(0.5, 0.5, at(lagging))  # before the first expected contact: runs on
+    assert planner.reference_time(0.7) == pytest.approx(0.7)
+    planner.pace(1.0, 1.0, at(at_rest))  # in the span, the object where the reference has it: runs on
+    assert planner.reference_time(1.2) == pytest.approx(1.2)
+    planner.pace(1.2, 1.2, at(lagging))  # lagging: held from 1.2 on, for the budget's 0.5 s at most
+    np.testing.assert_allclose(planner.reference_time(np.array([1.1, 1.2, 1.5, 1.7, 2.0])), [1.2] * 4 + [1.5])
+    planner.pace(1.4, 1.2, at(at_rest))  # caught up: runs on from where it is, 0.2 s behind
+    assert planner.reference_time(1.9) == pytest.approx(1.7)
+    planner.pace(1.6, 1.4, at(lagging))  # held again, for the 0.3 s of budget left
+    assert planner.reference_time(1.9) == pytest.approx(1.4)
+    assert planner.reference_time(2.5) == pytest.approx(2.0)
+    planner.pace(2.5, 2.0, at(lagging))  # the budget spent: runs on
+    assert planner.reference_time(2.7) == pytest.approx(2.2)
+    with pytest.raises(ConfigError, match="pace_rate"):
+        PredictiveSampling(pace_lag=0.02, pace_rate=1.0)
+    planner.close()
+    off.close()
+
+
+def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_path, late_contact_reference):
+    """pacing=hold on a reference whose object rises while the tiny planner cannot lift it: the reference's
+    clock falls behind only after the first expected contact, by at most the budget, the trial runs the
+    budget longer, and the log reads the reference at the reference's time. With no budget it never waits:
+    the trial of pacing=none, bit for bit."""
+    overrides = [
+        "task=apple",
+        f"task.reference_path={late_contact_reference[1]}",
+        *TINY,
+        "job.progress=false",
+    ]
+    base = run_job(overrides, tmp_path / "off")
+    paced = run_job(
+        overrides + ["pacing=hold", "planner.pace_lag=0.01", "planner.pace_budget=0.3"], tmp_path / "on"
+    )
+    record = json.loads(paced.read_text())
+    assert record["status"] == "ok" and record["config"]["planner"]["pace_lag"] == 0.01
+    assert record["simulated_seconds"] == pytest.approx(
+        json.loads(base.read_text())["simulated_seconds"] + 0.3
+    )
+    series = np.load(paced.parent / "timeseries.npz")
+    behind = series["time"] - series["reference_time"]
+    assert (np.diff(series["reference_time"]) >= -1e-12).all() and (np.diff(behind) >= -1e-12).all()
+    assert behind.max() == pytest.approx(0.3, abs=1e-9)  # the object never rises: the whole budget
+    first = record["contact_span_start"]
+    assert not behind[series["time"] < first].any() and behind[series["time"] > first + 0.3].all()
+    held = np.flatnonzero(np.diff(series["reference_time"]) == 0)
+    np.testing.assert_array_equal(
+        series["expected_object_qpos"][held], series["expected_object_qpos"][held + 1]
+    )
+    never = run_job(overrides + ["pacing=hold", "planner.pace_budget=0"], tmp_path / "never")
+    a, b = np.load(base.parent / "timeseries.npz"), np.load(never.parent / "timeseries.npz")
+    assert set(b.files) - set(a.files) == {"reference_time"}
+    np.testing.assert_array_equal(b["reference_time"], b["time"])
+    for key in a.files:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_a_paced_reference_is_refused_online(scene_for):
+    from contactmpc.online import OnlineLoop
+
+    scene = scene_for("apple")
+    planner = PredictiveSampling(num_samples=2, horizon=0.1, nthread=1, pace_lag=0.02)
+    ref = static_reference(scene, duration=0.2, frames=6)
+    trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
+    with pytest.raises(ConfigError, match="pace_lag.*not in job=online"):
+        OnlineLoop(trial)
+    planner.close()

@@ -309,6 +309,7 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert spec.method_lever({"planner.acquire_until": float("nan"), "sampler.root_sigma2": None}) == ""
     assert spec.method_lever({"cost.lambda_c": 3.0, "cost.surface_weight": 0.0}) == "contact3"
     assert spec.method_lever({"cost.lambda_o": 1.0, "cost.surface_weight": 1.0}) == "surface1"
+    assert spec.method_lever({"pacing": "hold"}) == "pacehold" and spec.method_lever({"pacing": "none"}) == ""
     common = {"where": "screen", "latency_ms": spec.CALIBRATED_MS, "task": "paper_stapler", "status": "ok",
               "ttf": 1.0, "cpu_seconds": 100.0}  # fmt: skip
     method = pd.DataFrame([{**common, "seed": s, "lifted": s < 3, "completed": s < 3} for s in range(6)])

@@ -431,6 +431,7 @@ METHOD_LEVER_KEYS = (
     ("cost.lambda_c", 1.0, "contact"),
     ("cost.lambda_o", 1.0, "object"),
     ("cost.surface_weight", 0.0, "surface"),
+    ("pacing", "none", "pace"),
 )
 
 #: What each lever on top of the method is, by its name's key (:data:`METHOD_LEVER_KEYS`' short names).
@@ -446,6 +447,10 @@ METHOD_LEVER_TEXT = {
     "surface": "`surface1`: the surface term on top of the clearance term (`cost.surface_weight=1.0`: each "
     "link whose contact is expected pulled onto the stapler wherever it touches it, read from the clearance "
     "term's distance sensors)",
+    "pace": "`pacehold`: the reference paced by the stapler (`pacing=hold`: the reference's clock holds "
+    "while the stapler is more than 2 cm from where the reference has it, up to 3 s in all, so the lift "
+    "waits for a grasp, and the grasp's phase, 128 samples a plan, lasts while it holds; the trial runs 3 s "
+    "longer)",
 }
 
 
@@ -470,7 +475,9 @@ def method_frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     if not len(df):
         return df, df
     df = df.assign(method_lever=[method_lever(r) for r in df.to_dict("records")])
-    ours = np.array([method_name(r) == METHOD for r in df.to_dict("records")], bool)
+    # the method, or the method with its reference paced (a lever on it, pacing=hold)
+    names = [method_name(r) or "" for r in df.to_dict("records")]
+    ours = np.array([n == METHOD or n.startswith(f"{METHOD}+pacing=") for n in names], bool)
     df = df[(df["task"] == "paper_stapler").to_numpy() & ours]
     df = df[(df["replan_interval"] - 0.17).abs() < 1e-6].copy()  # not the runs planning every 60 ms
     if "planner.approach_reset" in df:  # the method itself, not a lever on top of it
@@ -537,11 +544,6 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         "changed, on the stapler's screen, against the method's own screen trials (`SET=method`) on the "
         "same seeds. "
         + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
-        + (
-            ". Only `until3` changes how many rollouts a plan runs (128 for a second longer)"
-            if "until" in shown
-            else ""
-        )
         + ".\n\n"
         + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])
         + "\n"

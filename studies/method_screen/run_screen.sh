@@ -85,6 +85,15 @@ LEVERS=(
   "variant=grasp_release_ahead_acquire cost.surface_weight=1.0"
 )
 at_method_point
+# SET=method_pacing: the method with its reference paced by the object (pacing=hold: the reference's clock
+# holds while the stapler is more than 2 cm from where the reference has it, up to 3 s in all, so the lift
+# waits for a grasp; the trial runs 3 s longer), on the stapler at the calibrated latency, against the
+# method's own screen trials (SET=method)
+elif [[ ${SET:-full} == method_pacing ]]; then
+LEVERS=(
+  "variant=grasp_release_ahead_acquire pacing=hold"
+)
+at_method_point
 else
 LEVERS=(
   "variant=full"

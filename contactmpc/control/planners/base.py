@@ -43,6 +43,8 @@ class PlanInfo:
         window: (Mw,) indices of the control points that could change.
         seconds: wall time of the iteration.
         iterations: sampling iterations it ran (``planner.iterations``, fewer when it stopped early).
+        reference_time: the reference's time it planned at (s); ``None``: ``time`` (the reference is not
+            paced, ``planner.pace_lag``).
     """
 
     time: float
@@ -53,6 +55,7 @@ class PlanInfo:
     window: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     seconds: float = 0.0
     iterations: int = 1
+    reference_time: float | None = None
 
 
 class Scored(NamedTuple):
@@ -120,6 +123,16 @@ class Planner:
             (:class:`~contactmpc.control.guidance.ObjectGuidance`; not the paper's): every iteration but
             the last rolls out with the object pulled toward the reference's, the last without; an
             iteration with guidance does not stop the plan early. ``None`` (the paper): none.
+        pace_lag: pace the reference by the object (not the paper's): between the reference's first and
+            last expected contact, while the free object's position is more than this many metres from
+            the reference's, the reference's clock runs at ``pace_rate`` instead of with control time, so
+            the reference waits for the object (a lift waits for a grasp) instead of leaving without it;
+            every time-indexed part of a plan (the cost's reference, the sampled control points, the
+            acquire and release phases, the policy's targets) follows the reference's clock
+            (:meth:`reference_time`). ``None`` (the paper): the reference runs with control time. A trial
+            then runs ``pace_budget`` longer.
+        pace_budget: control time the reference may fall behind in all (s).
+        pace_rate: the reference's clock rate while it waits, in [0, 1): 0 holds it.
     """
 
     needs_rollouts = True
@@ -143,12 +156,25 @@ class Planner:
         acquire_until: float = 2.0,
         approach_reset: Annotated[float, Ge(0)] | None = None,
         guidance: ObjectGuidance | None = None,
+        pace_lag: Annotated[float, Gt(0)] | None = None,
+        pace_budget: Annotated[float, Ge(0)] = 3.0,
+        pace_rate: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
                 f"{type(self).__name__}: latency = {latency:g} s and a latency_model are both set: "
                 "choose one (planner.latency=0 or planner.latency_model=null)"
             )
+        if pace_rate >= 1.0:
+            raise ConfigError(
+                f"planner.pace_rate = {pace_rate:g}: a waiting reference's clock must run slower than 1"
+            )
+        self.pace_lag = None if pace_lag is None else float(pace_lag)
+        self.pace_budget = float(pace_budget)
+        self.pace_rate = float(pace_rate)
+        # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
+        # control time t1, then with control time
+        self._clock = (0.0, 0.0, 1.0, np.inf)
         self.latency = float(latency)
         self.latency_model = latency_model
         self.num_samples = int(num_samples)
@@ -259,13 +285,45 @@ class Planner:
         return self._basis_cache[i]
 
     def targets(self, times: np.ndarray, theta: np.ndarray | None = None) -> np.ndarray:
-        """The committed policy: (N, J) joint targets at control ``times`` (N,).
+        """The committed policy: (N, J) joint targets at control ``times`` (N,), the spline read at the
+        reference's times there (:meth:`reference_time`).
 
         ``theta`` (M, d): control points to evaluate instead of the committed ones (the wall-clock loop,
         :mod:`contactmpc.online`, evaluates its published copy while the planner works on its own).
         """
         theta = self.theta if theta is None else theta
-        return self.problem.space.controls(theta, self.problem.spline.basis(times))
+        return self.problem.space.controls(theta, self.problem.spline.basis(self.reference_time(times)))
+
+    def reference_time(self, t):
+        """The reference's time at control time ``t`` (a float or an array): ``t`` itself unless the
+        reference is paced (``pace_lag``), else its clock's as the plans so far have set it."""
+        if self.pace_lag is None:
+            return t
+        t0, s0, rate, t1 = self._clock
+        t = np.asarray(t, float)
+        s = s0 + rate * (np.minimum(t, t1) - t0) + np.maximum(t - t1, 0.0)
+        return float(s) if s.ndim == 0 else s
+
+    def pace(self, t: float, s: float, state: np.ndarray) -> None:
+        """Set the reference's clock from control time ``t`` on (where a plan takes effect), for the plan
+        made from ``state`` at reference time ``s``: it waits (runs at ``pace_rate``) while the reference
+        expects contact, the free object is more than ``pace_lag`` from where the reference has it at
+        ``s``, and the reference is less than ``pace_budget`` behind control time (until it is); else it
+        runs with control time."""
+        problem = self.problem
+        first, last = problem.first_contact, problem.last_contact
+        at = self.reference_time(t)
+        behind = t - at
+        wait = first is not None and first - 1e-9 <= s and (last is None or s < last - 1e-9)
+        if wait and behind < self.pace_budget - 1e-9:
+            scene, track = problem.scene, problem.track
+            qo = state[1 + scene.index.object_qpos]  # mjSTATE_FULLPHYSICS: the time, then qpos
+            lag = float(scene.task.layout.error(qo, track.object_qpos[track.index(s)]).position)
+            if lag > self.pace_lag:
+                until = t + (self.pace_budget - behind) / (1.0 - self.pace_rate)
+                self._clock = (t, at, self.pace_rate, until)
+                return
+        self._clock = (t, at, 1.0, np.inf)
 
     def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
         """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M)."""
@@ -288,7 +346,7 @@ class Planner:
         if n < 1 or self.engine is None:
             return t, state
         times = t + np.arange(n) * self.dt
-        ctrl = self.controls(self.theta[None], self.problem.spline.basis(times))
+        ctrl = self.controls(self.theta[None], self.problem.spline.basis(self.reference_time(times)))
         states, _, diverged = self.engine.run(state, ctrl)
         if diverged[0]:
             return t, state
@@ -362,17 +420,24 @@ class Planner:
                 then, its prediction counted in its compute time; else, or at 0, from ``state`` at ``t``.
         """
         start = time.perf_counter()
+        takes_effect = t + ahead
         if ahead and self.compensate_latency:  # plan from where the plant will be when the plan acts
             t, state = self.predict(t, state, ahead)
-        if self._approach_at is not None and t >= self._approach_at - 1e-9:
+        s = self.reference_time(t)  # where the plan is on the reference: t unless it is paced
+        if self.pace_lag is not None:
+            self.pace(takes_effect, s, state)
+        if self._approach_at is not None and s >= self._approach_at - 1e-9:
             self.reset_approach()
-        if self._release_at is not None and t >= self._release_at - 1e-9:
+        if self._release_at is not None and s >= self._release_at - 1e-9:
             self.release()
-        self._plan_samples = self.samples_at(t)
+        self._plan_samples = self.samples_at(s)
         try:
-            return self._plan(t, state, rng, start)
+            info = self._plan(s, state, rng, start)
         finally:
             self._plan_samples = None
+        if self.pace_lag is not None:
+            info.time, info.reference_time = t, s
+        return info
 
     def samples_at(self, t: float) -> int:
         """The samples a plan at control time ``t`` draws: ``acquire_samples`` until ``acquire_until``
