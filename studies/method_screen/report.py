@@ -428,6 +428,7 @@ def guidance_findings(screen: pd.DataFrame, method: pd.DataFrame | None = None) 
 METHOD_LEVER_KEYS = (
     ("planner.acquire_until", 2.0, "until"),
     ("sampler.root_sigma2", 1e-4, "wristvar"),
+    ("sampler.root_rotation_sigma2", 0.01, "wristrot"),
     ("cost.lambda_c", 1.0, "contact"),
     ("cost.lambda_o", 1.0, "object"),
     ("cost.surface_weight", 0.0, "surface"),
@@ -441,6 +442,8 @@ METHOD_LEVER_TEXT = {
     "reference starts lifting the stapler 1.4-1.7 s after its first contact)",
     "wristvar": "`wristvar0.0004`: the wrist's sampling variance on its slides four times the method's "
     "(`sampler.root_sigma2=4.0e-4`: 2 cm instead of 1)",
+    "wristrot": "`wristrot0.0025`: the wrist's rotation sampled with a quarter of the method's variance "
+    "(`sampler.root_rotation_sigma2=0.0025`: 0.05 rad instead of 0.1)",
     "contact": "`contact3`: the contact term weighted three times the method's (`cost.lambda_c=3.0`; the "
     "clearance term, weighted by it too, with it)",
     "object": "`object3`: the object term weighted three times the method's (`cost.lambda_o=3.0`)",

@@ -77,12 +77,14 @@ at_method_point
 # SET=method_cost: the method's cost weighted otherwise, on the stapler at the calibrated latency, against the
 # method's own screen trials (SET=method): the contact term x3, the object term x3, and the surface term on top
 # of the clearance term (each expected link pulled onto the stapler wherever it touches it, after its first
-# expected contact). None changes what a plan costs by more than the cost's evaluation.
+# expected contact); and the wrist's rotation sampled with a quarter of the method's variance (its targets
+# wander 0.1-0.3 rad from the reference's during the grasp). None changes the rollouts a plan runs.
 elif [[ ${SET:-full} == method_cost ]]; then
 LEVERS=(
   "variant=grasp_release_ahead_acquire cost.lambda_c=3.0"
   "variant=grasp_release_ahead_acquire cost.lambda_o=3.0"
   "variant=grasp_release_ahead_acquire cost.surface_weight=1.0"
+  "variant=grasp_release_ahead_acquire sampler.root_rotation_sigma2=0.0025"
 )
 at_method_point
 # SET=method_pacing: the method with its reference paced by the object (pacing=hold: the reference's clock
