@@ -297,6 +297,39 @@ def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_tria
     assert spec.method_section(df[df["where"] == "full"]) == ""  # no screen trial yet: no section
 
 
+def test_the_method_screen_reads_how_long_a_paced_reference_waited_from_the_time_series(tmp_path) -> None:
+    """pacing_waits: from each paced trial's reference_time, how far it fell behind, whether it spent the
+    whole budget, when it first waited against where the reference starts lifting, and how far the object
+    rose while the reference stood still; None without a paced trial's time series."""
+    import json
+
+    import numpy as np
+    import pandas as pd
+
+    spec = Study("method_screen").spec
+    t = np.round(np.arange(0, 4.0, 0.1), 10)
+    reference = np.where(t < 2.0, t, np.maximum(2.0, t - 1.0))  # stands still from 2.0 to 3.0 s: 1 s behind
+    expected = np.stack([np.zeros_like(t)] * 2 + [np.where(reference > 1.5, 0.1 * (reference - 1.5), 0.0)], 1)
+    rows = []
+    for seed, rise in ((0, 0.0), (1, 0.01)):
+        run = tmp_path / str(seed)
+        run.mkdir()
+        obj = np.zeros((len(t), 3))
+        obj[:, 2] = np.where(t > 2.0, rise, 0.0)
+        np.savez(run / "timeseries.npz", time=t, reference_time=reference, object_qpos=obj,
+                 expected_object_qpos=expected)  # fmt: skip
+        (run / "trial.json").write_text(json.dumps({"config": {"planner": {"pace_budget": 1.0}}}))
+        rows.append({"record_path": str(run / "trial.json"), "contact_span_start": 1.0, "status": "ok"})
+    text = spec.pacing_waits(pd.DataFrame(rows))
+    assert "the reference waited in 2 of 2, falling 1.0 s behind (median), the whole budget in 2" in text
+    assert "the first wait began +0.40 s from where the reference starts lifting" in text  # 2.0 - (1.5 + 0.1)
+    assert "the stapler rose 5.0 mm (median; 0.0 to 10.0)" in text
+    assert (
+        spec.pacing_waits(pd.DataFrame(rows).assign(record_path=str(tmp_path / "none" / "trial.json")))
+        is None
+    )
+
+
 def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_the_same_seeds() -> None:
     """method_lever names a trial by the options it changes on the method ("" for the method itself);
     method_levers_section: a table row per lever and the method, and per lever its counts against the

@@ -515,6 +515,50 @@ def _screened(method: pd.DataFrame) -> pd.DataFrame | None:
     return method[method["where"] == "screen"] if len(method) else None
 
 
+#: How far (m) the reference's object rises over its height at the first expected contact where it counts
+#: as lifting (:func:`pacing_waits`).
+LIFT_START = 0.005
+
+
+def pacing_waits(paced: pd.DataFrame) -> str | None:
+    """What the paced trials' reference did, from their time series (``reference_time``): how many waited,
+    the most it fell behind control time (median), how many waited the whole budget, when the first wait
+    began against where the reference starts lifting the object (its expected height :data:`LIFT_START`
+    over the height at the first expected contact), and how far the object rose while the reference stood
+    still; ``None`` without a paced trial's time series."""
+    rows = []
+    for r in counted(paced).itertuples():
+        path = Path(r.record_path).parent / "timeseries.npz"
+        if not path.is_file():
+            continue
+        series = np.load(path)
+        if "reference_time" not in series.files:
+            continue
+        t, ref = series["time"], series["reference_time"]
+        behind = t - ref
+        still = np.flatnonzero(np.diff(ref) <= 1e-12)  # rows after which the reference stood still
+        z, expected = series["object_qpos"][:, 2], series["expected_object_qpos"][:, 2]
+        span = t >= r.contact_span_start
+        lifts = t[span][expected[span] > expected[span][0] + LIFT_START]
+        start = float(t[still[0]] - lifts[0]) if len(still) and len(lifts) else np.nan
+        budget = json.loads(Path(r.record_path).read_text())["config"]["planner"]["pace_budget"]
+        rise = float((z[still + 1] - z[still]).sum())
+        rows.append((behind.max(), behind.max() >= budget - 1e-6, start, rise))
+    if not rows:
+        return None
+    most, whole, start, rise = (np.array(c) for c in zip(*rows, strict=True))
+    waited = most > 0
+    return (
+        f"- `pacehold`, from its {len(rows)} trials' time series: the reference waited in "
+        f"{int(waited.sum())} of {len(rows)}, falling {median(most[waited], '{:.1f}')} s behind (median), "
+        f"the whole budget in {int(whole.sum())}; the first wait began {median(start[waited], '{:+.2f}')} s "
+        "from where the reference starts lifting the stapler (median); while the reference stood still the "
+        f"stapler rose {median(1e3 * rise[waited], '{:.1f}')} mm (median; {1e3 * rise.min():.1f} to "
+        f"{1e3 * rise.max():.1f}). The hand's targets are the policy read at the reference's time, so they "
+        "stand still while it waits."
+    )
+
+
 def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
     """Each lever on top of the method (``levers``, of :func:`method_frames`) against the method's own
     screen trials at the calibrated latency (``method``, of :func:`method_frames`), on the seeds both have:
@@ -536,6 +580,8 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         (ak, an), (bk, bn) = _k(a, "lifted"), _k(b, "lifted")
         if an and bn and ak / an > bk / bn and completion_test(ak, an, bk, bn)[0] < 0.05:
             better.append(f"`{n}`")
+    if "pacehold" in by and (waits := pacing_waits(by["pacehold"])):
+        lines.append(waits)
     lines.append(
         "Levers that lift the stapler more often than the method on the same seeds (Barnard p < 0.05): "
         + (", ".join(better) if better else "none")
@@ -543,7 +589,8 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
     )
     return (
         "## Levers on top of the method\n\n"
-        f"`SET=method_levers`: the method (`{METHOD}`, its preset, {CALIBRATED_MS} ms) with one option "
+        f"`SET=method_levers`, `method_cost`, `method_pacing`: the method (`{METHOD}`, its preset, "
+        f"{CALIBRATED_MS} ms) with one option "
         "changed, on the stapler's screen, against the method's own screen trials (`SET=method`) on the "
         "same seeds. "
         + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
