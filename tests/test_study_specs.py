@@ -344,6 +344,7 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert spec.method_lever({"cost.lambda_o": 1.0, "cost.surface_weight": 1.0}) == "surface1"
     assert spec.method_lever({"pacing": "hold"}) == "pacehold" and spec.method_lever({"pacing": "none"}) == ""
     assert spec.method_lever({"sampler.root_rotation_sigma2": 0.0025}) == "wristrot0.0025"
+    assert spec.method_lever({"pacing": "hold", "planner.pace_rate": 0.3}) == "pacehold rate0.3"
     common = {"where": "screen", "latency_ms": spec.CALIBRATED_MS, "task": "paper_stapler", "status": "ok",
               "ttf": 1.0, "cpu_seconds": 100.0}  # fmt: skip
     method = pd.DataFrame([{**common, "seed": s, "lifted": s < 3, "completed": s < 3} for s in range(6)])

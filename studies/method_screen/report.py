@@ -433,6 +433,7 @@ METHOD_LEVER_KEYS = (
     ("cost.lambda_o", 1.0, "object"),
     ("cost.surface_weight", 0.0, "surface"),
     ("pacing", "none", "pace"),
+    ("planner.pace_rate", 0.0, "rate"),
 )
 
 #: What each lever on top of the method is, by its name's key (:data:`METHOD_LEVER_KEYS`' short names).
@@ -454,6 +455,8 @@ METHOD_LEVER_TEXT = {
     "while the stapler is more than 2 cm from where the reference has it, up to 3 s in all, so the lift "
     "waits for a grasp, and the grasp's phase, 128 samples a plan, lasts while it holds; the trial runs 3 s "
     "longer)",
+    "rate": "`pacehold rate0.3`: the same with the reference's clock slowed to 0.3 instead of held while the "
+    "stapler lags (`planner.pace_rate=0.3`: the lift slowed, not stopped)",
 }
 
 

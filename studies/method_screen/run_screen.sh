@@ -90,10 +90,12 @@ at_method_point
 # SET=method_pacing: the method with its reference paced by the object (pacing=hold: the reference's clock
 # holds while the stapler is more than 2 cm from where the reference has it, up to 3 s in all, so the lift
 # waits for a grasp; the trial runs 3 s longer), on the stapler at the calibrated latency, against the
-# method's own screen trials (SET=method)
+# method's own screen trials (SET=method); and the same with the reference's clock slowed to 0.3 instead of
+# held while the stapler lags (planner.pace_rate=0.3: the lift slowed, not stopped)
 elif [[ ${SET:-full} == method_pacing ]]; then
 LEVERS=(
   "variant=grasp_release_ahead_acquire pacing=hold"
+  "variant=grasp_release_ahead_acquire pacing=hold planner.pace_rate=0.3"
 )
 at_method_point
 else
