@@ -210,7 +210,8 @@ class Trial:
 
     def expected_log(self) -> tuple[np.ndarray, np.ndarray]:
         """The instants the whole trial logs (one per replan) and the links expected in contact there:
-        ``(time (N,), expected_contacts (N, L))``, as :meth:`run`'s log has them."""
+        ``(time (N,), expected_contacts (N, L))``, as :meth:`run`'s log has them (a paced reference's as if
+        it never waited: how long it will wait is known only as the trial runs)."""
         dt = self.scene.plant_model.opt.timestep
         per_plan = int(round(self.replan_interval / dt))
         time = np.arange(int(round(self.start_time / dt)), int(round(self.duration / dt)), per_plan) * dt
