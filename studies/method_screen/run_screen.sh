@@ -87,6 +87,12 @@ LEVERS=(
   "variant=grasp_release_ahead_acquire sampler.root_rotation_sigma2=0.0025"
 )
 at_method_point
+# SET=method_cost2: the two of them that lifted the stapler most often in the first seeds, together
+elif [[ ${SET:-full} == method_cost2 ]]; then
+LEVERS=(
+  "variant=grasp_release_ahead_acquire cost.surface_weight=1.0 sampler.root_rotation_sigma2=0.0025"
+)
+at_method_point
 # SET=method_pacing: the method with its reference paced by the object (pacing=hold: the reference's clock
 # holds while the stapler is more than 2 cm from where the reference has it, up to 3 s in all, so the lift
 # waits for a grasp; the trial runs 3 s longer), on the stapler at the calibrated latency, against the
