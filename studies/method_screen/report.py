@@ -592,10 +592,9 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
     )
     return (
         "## Levers on top of the method\n\n"
-        f"`SET=method_levers`, `method_cost`, `method_pacing`: the method (`{METHOD}`, its preset, "
-        f"{CALIBRATED_MS} ms) with one option "
-        "changed, on the stapler's screen, against the method's own screen trials (`SET=method`) on the "
-        "same seeds. "
+        f"`SET=method_levers`, `method_cost`, `method_cost2`, `method_pacing`: the method (`{METHOD}`, its "
+        f"preset, {CALIBRATED_MS} ms) with an option changed (two together: a name of two words), on the "
+        "stapler's screen, against the method's own screen trials (`SET=method`) on the same seeds. "
         + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
         + ".\n\n"
         + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])
