@@ -378,6 +378,8 @@ def test_pacing_holds_the_reference_in_the_span_while_the_object_lags_up_to_its_
     assert planner.reference_time(2.5) == pytest.approx(2.0)
     planner.pace(2.5, 2.0, at(lagging))  # the budget spent: runs on
     assert planner.reference_time(2.7) == pytest.approx(2.2)
+    planner.bind(problem)  # a new trial's: the clock starts with control time again
+    assert planner.reference_time(2.7) == pytest.approx(2.7)
     with pytest.raises(ConfigError, match="pace_rate"):
         PredictiveSampling(pace_lag=0.02, pace_rate=1.0)
     planner.close()

@@ -225,9 +225,11 @@ class Planner:
 
     # --- the loop ------------------------------------------------------------------------------
     def bind(self, problem: Problem) -> None:
-        """Attach the problem; the nominal control points start as the reference's own (``theta0``)."""
+        """Attach the problem; the nominal control points start as the reference's own (``theta0``), a
+        paced reference's clock at control time."""
         self.problem = problem
         self.theta = np.array(problem.theta0, dtype=float)
+        self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
         self.dt = problem.scene.planner_model.opt.timestep
         self.steps = max(1, int(round(self.horizon / self.dt)))
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
