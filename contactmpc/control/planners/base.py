@@ -325,7 +325,8 @@ class Planner:
                 until = t + (self.pace_budget - behind) / (1.0 - self.pace_rate)
                 self._clock = (t, at, self.pace_rate, until)
                 return
-        self._clock = (t, at, 1.0, np.inf)
+        if self._clock[2:] != (1.0, np.inf):  # (running on already: the same clock, exactly)
+            self._clock = (t, at, 1.0, np.inf)
 
     def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
         """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M)."""
