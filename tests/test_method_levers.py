@@ -386,6 +386,61 @@ def test_pacing_holds_the_reference_in_the_span_while_the_object_lags_up_to_its_
     off.close()
 
 
+def test_a_paced_release_waits_only_in_its_window_for_the_object_placed_and_upright(scene_for):
+    """planner.pace_window / pace_angle (pacing=release): the reference's clock holds only while its time
+    lies in the window before the last expected contact, and there also while the object is turned more
+    than pace_angle from the reference's (its position where the reference has it); a window that is not
+    (start < end) is refused in one line."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:2] = False  # expected contact from 0.2 to 0.7 s of the demonstration
+    ref.contact_active[8:] = False
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    first, last = problem.first_contact, problem.last_contact
+    assert first is not None and last is not None and first < last - 0.5
+    planner = PredictiveSampling(
+        num_samples=2, horizon=0.2, nthread=1, pace_lag=0.02, pace_angle=0.3, pace_window=(-0.4, 0.0)
+    )
+    planner.bind(problem)
+    m = scene.planner_model
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    placed = problem.track.object_qpos[0]
+    lagging, turned = placed.copy(), placed.copy()
+    lagging[2] -= 0.05
+    q = scene.task.layout.quat_index
+    turned[q : q + 4] = [np.cos(0.25), np.sin(0.25), 0.0, 0.0]  # 0.5 rad about x, in place
+
+    def at(qo):
+        state[1 + scene.index.object_qpos] = qo
+        return state
+
+    s = first + 0.1  # in the span, before the window: runs on however far the object lags
+    planner.pace(s, s, at(lagging))
+    assert planner.reference_time(s + 0.1) == pytest.approx(s + 0.1)
+    s = last - 0.3  # in the window, placed and upright: runs on
+    planner.pace(s, s, at(placed))
+    assert planner.reference_time(s + 0.1) == pytest.approx(s + 0.1)
+    planner.pace(s, s, at(turned))  # turned 0.5 rad > 0.3, in place: held
+    assert planner.reference_time(s + 0.1) == pytest.approx(s)
+    planner.pace(s + 0.1, s, at(placed))  # set right: runs on, 0.1 s behind
+    assert planner.reference_time(s + 0.2) == pytest.approx(s + 0.1)
+    upright_only = PredictiveSampling(
+        num_samples=2, horizon=0.2, nthread=1, pace_lag=0.02, pace_window=(-0.4, 0.0)
+    )
+    upright_only.bind(problem)
+    upright_only.pace(s, s, at(turned))  # without pace_angle the position alone: runs on
+    assert upright_only.reference_time(s + 0.1) == pytest.approx(s + 0.1)
+    s = last + 0.05  # past the last contact: runs on
+    upright_only.pace(s, s, at(lagging))
+    assert upright_only.reference_time(s + 0.1) == pytest.approx(s + 0.1)
+    with pytest.raises(ConfigError, match="pace_window"):
+        PredictiveSampling(pace_lag=0.02, pace_window=(0.0, -0.5))
+    planner.close()
+    upright_only.close()
+
+
 def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_path, late_contact_reference):
     """pacing=hold on a reference whose object rises while the tiny planner cannot lift it: the reference's
     clock falls behind only after the first expected contact, by at most the budget, the trial runs the
@@ -423,6 +478,31 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
     for key in a.files:
         if key != "plan_seconds":
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for):
+    """pacing=release on a reference whose object rises while the tiny planner cannot lift it, and which lets
+    go: the reference's clock falls behind only where its time lies in the 0.5 s before the last expected
+    contact, by at most the budget, and the trial runs the budget longer."""
+    ref = static_reference(scene_for("apple"), duration=1.0, frames=11)
+    ref.object_qpos[:, 2] += np.linspace(0.0, 0.05, 11)
+    ref.contact_active[:2] = False
+    ref.contact_active[8:] = False
+    path = str(ref.save(tmp_path / "apple.npz"))
+    overrides = ["task=apple", f"task.reference_path={path}", *TINY, "job.progress=false"]
+    paced = run_job(overrides + ["pacing=release", "planner.pace_budget=0.3"], tmp_path / "on")
+    record = json.loads(paced.read_text())
+    assert record["status"] == "ok" and record["config"]["planner"]["pace_window"] == [-0.5, 0.0]
+    series = np.load(paced.parent / "timeseries.npz")
+    t, s = series["time"], series["reference_time"]
+    behind = t - s
+    assert behind.max() == pytest.approx(0.3, abs=1e-9)  # the object never rises: the whole budget
+    # the last expected contact on the reference's clock (the record's span end is in control time, after
+    # the wait; within one of the reference's frames, 0.2 s of control time here)
+    last = record["contact_span_end"] - behind.max()
+    held = np.flatnonzero(np.diff(s) == 0)
+    assert held.size and (s[held] >= last - 0.5 - 0.2).all() and (s[held] < last).all()
+    assert not behind[s < last - 0.7].any()
 
 
 def test_a_paced_reference_is_refused_online(scene_for):

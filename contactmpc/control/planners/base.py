@@ -23,6 +23,7 @@ from contactmpc.control.cost import as_index
 from contactmpc.control.guidance import CONTROL_SPEC, ObjectGuidance
 from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.problem import Problem
+from contactmpc.control.release import time_window
 from contactmpc.control.robust import ModelEnsemble
 from contactmpc.control.rollout import RolloutEngine
 from contactmpc.validate import ConfigError, Ge, Gt, checked
@@ -133,6 +134,12 @@ class Planner:
             then runs ``pace_budget`` longer.
         pace_budget: control time the reference may fall behind in all (s).
         pace_rate: the reference's clock rate while it waits, in [0, 1): 0 holds it.
+        pace_angle: wait also while the free object's orientation is more than this many radians from
+            the reference's; ``None``: its position alone.
+        pace_window: ``(start, end)`` seconds relative to the reference's last expected contact: wait only
+            while the reference's time is in that interval (``(-0.5, 0.0)``: the release waits for the
+            object to be where the reference sets it down); ``None``: anywhere between the first and last
+            expected contact.
     """
 
     needs_rollouts = True
@@ -159,6 +166,8 @@ class Planner:
         pace_lag: Annotated[float, Gt(0)] | None = None,
         pace_budget: Annotated[float, Ge(0)] = 3.0,
         pace_rate: Annotated[float, Ge(0)] = 0.0,
+        pace_angle: Annotated[float, Gt(0)] | None = None,
+        pace_window: tuple[float, float] | None = None,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -172,6 +181,8 @@ class Planner:
         self.pace_lag = None if pace_lag is None else float(pace_lag)
         self.pace_budget = float(pace_budget)
         self.pace_rate = float(pace_rate)
+        self.pace_angle = None if pace_angle is None else float(pace_angle)
+        self.pace_window = time_window("planner.pace_window", pace_window)
         # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
         # control time t1, then with control time
         self._clock = (0.0, 0.0, 1.0, np.inf)
@@ -310,18 +321,25 @@ class Planner:
         """Set the reference's clock from control time ``t`` on (where a plan takes effect), for the plan
         made from ``state`` at reference time ``s``: it waits (runs at ``pace_rate``) while the reference
         expects contact, the free object is more than ``pace_lag`` from where the reference has it at
-        ``s``, and the reference is less than ``pace_budget`` behind control time (until it is); else it
-        runs with control time."""
+        ``s`` (or, with ``pace_angle``, turned more than that from it), and the reference is less than
+        ``pace_budget`` behind control time (until it is); else it runs with control time. With
+        ``pace_window`` it waits only while ``s`` lies in that window around the last expected contact."""
         problem = self.problem
         first, last = problem.first_contact, problem.last_contact
         at = self.reference_time(t)
         behind = t - at
-        wait = first is not None and first - 1e-9 <= s and (last is None or s < last - 1e-9)
+        if self.pace_window is None:
+            wait = first is not None and first - 1e-9 <= s and (last is None or s < last - 1e-9)
+        else:
+            start, end = self.pace_window
+            wait = last is not None and last + start - 1e-9 <= s < last + end - 1e-9
         if wait and behind < self.pace_budget - 1e-9:
             scene, track = problem.scene, problem.track
             qo = state[1 + scene.index.object_qpos]  # mjSTATE_FULLPHYSICS: the time, then qpos
-            lag = float(scene.task.layout.error(qo, track.object_qpos[track.index(s)]).position)
-            if lag > self.pace_lag:
+            error = scene.task.layout.error(qo, track.object_qpos[track.index(s)])
+            lag = float(error.position)
+            turned = self.pace_angle is not None and float(error.rotation) > self.pace_angle
+            if lag > self.pace_lag or turned:
                 until = t + (self.pace_budget - behind) / (1.0 - self.pace_rate)
                 self._clock = (t, at, self.pace_rate, until)
                 return
