@@ -424,6 +424,41 @@ def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen
     assert text.startswith(spec.heldout(None, chosen).removesuffix("No such trial is kept yet.\n"))
 
 
+def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(monkeypatch, tmp_path) -> None:
+    """levers_section: a lever is named by its run folder's overrides (not the experiment, seed or task), and
+    per task its counts stand beside the method's on the seeds the lever has, with the seeds only one of
+    them finished cleanly; without a lever trial, a line that says so."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    folder = "experiment=method,pacing=release,place=wrist,seed=3,task=paper_stapler"
+    assert spec.lever_of(f"/x/levers/{folder}/trial.json") == "pacing=release place=wrist"
+
+    def trials(seeds, clean, lever=None):
+        name = folder.replace("seed=3", "seed={}") if lever else "x,seed={}"
+        paths = [f"/x/{name.format(s)}/trial.json" for s in seeds]
+        return pd.DataFrame({"task": "stapler", "variant": spec.METHOD, "seed": list(seeds), "counted": True,
+                             "completed": True, "finished_cleanly": clean, "cpu_seconds": 300.0,
+                             "status": "ok", "record_path": paths})  # fmt: skip
+
+    chosen = trials(range(10), [True] * 5 + [False, True] + [False] * 3)
+    lever = trials([4, 5, 6], [True, True, False], True)
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: lever)
+
+    class Drawn:
+        def draw(self, name, make, alt, data=None):
+            make(tmp_path / name)
+            return f"![{alt}](figures/{name})"
+
+    text = spec.levers_section(Drawn(), chosen)
+    assert "| `pacing=release place=wrist` | stapler | 4-6 | 3 of 3 | 2 of 3 | 3 of 3 | 2 of 3 |" in text
+    assert "| 5 | 6 | 1.00 |" in text  # clean only with the lever: 5; only without: 6
+    assert "`place=wrist`: The wrist sampled while the object is set down" in text
+    assert (tmp_path / "levers.png").stat().st_size > 0
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: trials([], []))
+    assert spec.levers_section(Drawn(), chosen).endswith("No such trial is kept yet.\n")
+
+
 def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_slide(monkeypatch) -> None:
     """rough_slide: per seed, how the trial on the slide with friction ended beside the trial of the same
     seed on the authors' slide, and the counts with Barnard's test; without such a trial, a line that says

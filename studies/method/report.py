@@ -578,6 +578,129 @@ def heldout(study, chosen: pd.DataFrame) -> str:
     return head + pipe_table(cols, "llrrrr", rows) + "\n" + ";\n".join(lines) + (".\n" if lines else "")
 
 
+LEVERS = "levers"
+LEVERS_RUN = (
+    'TASKS="stapler bottle apple" OUT=studies/method/levers bash studies/method/run_levers.sh <overrides>'
+)
+#: What a lever's override means, where it is not a group's member (whose own description is read from conf/).
+LEVER_TEXT = {
+    "cost.lambda_c=3.0": "the contact term x3 (`cost.lambda_c`; the paper's 1): the stapler's grasp screen "
+    "lifted it on 16 of 20 seeds against the method's 12 (the method_screen study)",
+}
+
+
+def lever_of(record_path) -> str:
+    """A lever trial's overrides on top of the method, from its run folder's name (``cost.lambda_c=3.0``,
+    ``pacing=release place=wrist``): every ``key=value`` but the experiment, the seed and the task."""
+    parts = Path(record_path).parent.name.split(",")
+    return " ".join(p for p in parts if p.split("=", 1)[0] not in ("experiment", "seed", "task"))
+
+
+def lever_frame(study) -> pd.DataFrame:
+    """The lever trials that count (:data:`LEVERS`, on the planned tasks and seeds), each with its
+    ``lever`` (:func:`lever_of`)."""
+    df = frame(study, LEVERS)
+    ok = counted(df) if len(df) else df
+    return ok.assign(lever=[lever_of(p) for p in ok["record_path"]]) if len(ok) else ok.assign(lever=[])
+
+
+def _lever_text(lever: str) -> str:
+    """What ``lever``'s overrides do: a group member's own description (from ``conf/``), else
+    :data:`LEVER_TEXT`'s."""
+    out = []
+    for part in lever.split():
+        key, member = part.split("=", 1)
+        path = CONF / key / f"{member}.yaml"
+        out.append(f"`{part}`: " + (_comment(path) if path.is_file() else LEVER_TEXT.get(part, "")))
+    return "; ".join(out)
+
+
+def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int]]) -> None:
+    """Per task, the method's and each lever's trials finished cleanly and completed, as bars (of the
+    seeds the lever has): ``rows`` of ``(task, name, n, completed, clean)``."""
+    import matplotlib.pyplot as plt
+
+    tasks = list(dict.fromkeys(r[0] for r in rows))
+    names = list(dict.fromkeys(r[1] for r in rows))
+    fig, axes = plt.subplots(1, len(tasks), figsize=(3.2 * len(tasks), 3.4), squeeze=False, sharey=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, task in zip(axes[0], tasks, strict=True):
+        mine = [r for r in rows if r[0] == task]
+        for i, (_, name, n, done, clean) in enumerate(mine):
+            c = colors[names.index(name) % len(colors)]
+            ax.bar(i, done / n, color=c, alpha=0.35)
+            ax.bar(i, clean / n, color=c, label=name if task == tasks[0] else None)
+            ax.text(i, done / n + 0.02, f"{clean}/{done}/{n}", ha="center", fontsize=7)
+        ax.axhline(TARGET_CLEAN / TARGET_SEEDS, color="k", lw=0.8, ls="--")
+        ax.set_title(task)
+        ax.set_xticks([])
+        ax.set_ylim(0, 1.12)
+    axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
+    fig.legend(loc="lower center", ncol=min(len(names), 3), fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0, 0.12 + 0.04 * (len(names) // 4), 1, 1))
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def levers_section(study, chosen: pd.DataFrame) -> str:
+    """Each lever on top of the method (:data:`LEVERS`) against the method's own trials on the same seeds,
+    per task: the counts, Barnard's test on finishing cleanly, the CPU-s ratio; a figure of the counts."""
+    head = (
+        f"Options on top of `{METHOD}` run as full trials on the sweep's seeds (stapler first, the task "
+        f"furthest from the target, then the bottle and the apple; seeds vary fastest), kept in `{LEVERS}/` "
+        f"(`{LEVERS_RUN}`), each against `{METHOD}`'s own trials on the same seeds.\n\n"
+    )
+    ok = lever_frame(study)
+    if not len(ok):
+        return head + "No such trial is kept yet.\n"
+    base = counted(chosen)
+    base = base[base["variant"] == METHOD] if len(base) else base
+    rows, fig_rows, notes = [], [], []
+    for lever, g in ok.groupby("lever", sort=True):
+        notes.append(f"- {_lever_text(lever)}")
+        for task in plan()[0]:
+            h = g[g["task"] == task].sort_values("seed")
+            if not len(h):
+                continue
+            c = base[(base["task"] == task) & base["seed"].isin(h["seed"])]
+            hk, hc = int(h["completed"].sum()), int(h["finished_cleanly"].sum())
+            ck, cc = int(c["completed"].sum()), int(c["finished_cleanly"].sum())
+            p, _ = completion_test(hc, len(h), cc, len(c)) if len(c) else (math.nan, math.nan)
+            ratio = h["cpu_seconds"].median() / c["cpu_seconds"].median() if len(c) else math.nan
+            with_lever, without = (set(x.loc[x["finished_cleanly"], "seed"]) for x in (h, c))
+            only, lost = sorted(with_lever - without), sorted(without - with_lever)
+            rows.append(
+                f"| `{lever}` | {task} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
+                f"| {of(ck, len(c))} | {of(cc, len(c))} | {Fmt.p(p)} | {seeds(only)} | {seeds(lost)} "
+                f"| {'' if math.isnan(ratio) else f'{ratio:.2f}'} |"
+            )
+            if len(c):
+                fig_rows += [(task, METHOD, len(c), ck, cc), (task, lever, len(h), hk, hc)]
+    cols = ("lever", "task", "seeds", "completed", "finished cleanly", f"`{METHOD}`: completed",
+            "finished cleanly", "Barnard p (clean)", "clean only with the lever", "clean only without",
+            "CPU-s, x the method's")  # fmt: skip
+    fig_rows = list(dict.fromkeys(fig_rows))
+    link = (
+        study.draw(
+            "levers.png",
+            lambda path: levers_figure(path, fig_rows),
+            "the levers on the method: trials finished cleanly and completed, per task",
+        )
+        if fig_rows
+        else None
+    )
+    return (
+        head
+        + "The levers:\n\n"
+        + "\n".join(notes)
+        + "\n\n"
+        + pipe_table(cols, "lllrrrrrllr", rows)
+        + "\nBarnard's exact two-sided p on finishing cleanly (the seeds are paired, the test treats the two "
+        "sides as independent samples); CPU-s: the medians' ratio, on the seeds both have.\n"
+        + (f"\n{link}\n" if link else "")
+    )
+
+
 ROUGH = "slide_friction"
 ROUGH_RUN = (
     "for s in $(seq 0 9); do python launch.py experiment=method task=paper_doorknob task.slide_friction=0.5 "
@@ -1273,6 +1396,8 @@ def report(study) -> str:
         + notes
         + "\n## On seeds it was not chosen on\n\n"
         + heldout(study, df)
+        + "\n## Levers on the method, full trials\n\n"
+        + levers_section(study, df)
         + "\n## The doorknob on a slide with friction\n\n"
         + rough_slide(rough, df, study)
         + "\n## Online, in wall-clock time\n\n"
