@@ -54,6 +54,7 @@ LABELS = (
     "effort",
     "place",
     "pacing",
+    "carry",
     "preset",
     "experiment",
     "perturbation",

@@ -84,6 +84,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "effort": None,
     "place": None,
     "pacing": None,
+    "carry": None,
     "hand": None,
     "cost": None,
     "sampler": None,

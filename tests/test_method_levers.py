@@ -505,6 +505,53 @@ def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for)
     assert not behind[s < last - 0.7].any()
 
 
+def test_carry_shifts_the_wrist_by_the_carried_objects_slip_and_keeps_the_shift(scene_for):
+    """planner.carry_gain: a plan shifts the committed wrist translation from its window on by gain x the time
+    since the last plan x (the reference's object position - the object's), only while both are lifted
+    more than carry_lift; at most carry_limit in all. Off: no shift."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.object_qpos[:, 2] += np.linspace(0.0, 0.1, 11)  # lifted 10 cm over the demonstration
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    m = scene.planner_model
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    track = problem.track
+
+    def at(s, offset):
+        state[1 + scene.index.object_qpos] = track.object_qpos[track.index(s)]
+        state[1 + scene.index.object_qpos[:3]] += offset
+        return state
+
+    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=2.0)
+    planner.bind(problem)
+    theta = planner.theta.copy()
+    slip = np.array([0.01, -0.02, 0.0])  # the object 1 cm along x and -2 cm along y off the reference's
+    assert not planner.carry(0.1, 0.1, at(0.1, slip)).any()  # not yet 2 cm up: no shift
+    np.testing.assert_array_equal(planner.theta, theta)
+    step = planner.carry(1.6, 1.6, at(1.6, slip))  # carried: 2/s x 1.5 s (capped at 0.5 s) x -slip
+    np.testing.assert_allclose(step, -2.0 * 0.5 * slip)
+    first = problem.spline.window_indices(1.6, 0.2)[0]
+    np.testing.assert_allclose(planner.theta[first:, :3] - theta[first:, :3], np.tile(step, (12 - first, 1)))
+    np.testing.assert_array_equal(planner.theta[:first], theta[:first])
+    np.testing.assert_array_equal(planner.theta[:, 3:], theta[:, 3:])
+    planner.carry_limit = 0.03
+    planner.carry(1.7, 1.7, at(1.7, 10 * slip))  # a big slip: the shift stops at the limit
+    assert np.linalg.norm(planner._carry) == pytest.approx(0.03)
+    planner.close()
+    off = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1)
+    off.bind(problem)
+    assert off.carry_gain == 0.0 and not off._carry.any()
+    off.close()
+
+
+def test_a_carried_trial_runs_and_says_so(tmp_path, late_contact_reference):
+    overrides = ["task=apple", f"task.reference_path={late_contact_reference[1]}", *TINY]
+    record = json.loads(run_job(overrides + ["job.progress=false", "carry=wrist"], tmp_path).read_text())
+    assert record["status"] == "ok" and record["config"]["planner"]["carry_gain"] == 1.0
+
+
 def test_a_paced_reference_is_refused_online(scene_for):
     from contactmpc.online import OnlineLoop
 

@@ -140,6 +140,15 @@ class Planner:
             while the reference's time is in that interval (``(-0.5, 0.0)``: the release waits for the
             object to be where the reference sets it down); ``None``: anywhere between the first and last
             expected contact.
+        carry_gain: carry the object where the reference has it (not the paper's; 1/s): while the free
+            object and the reference's are both more than ``carry_lift`` above where the object starts
+            (it is carried), each plan moves the wrist's committed translation, on the control points from
+            the plan's window on, by this gain x the control time since the last plan x the object's
+            position error (the reference's position minus the object's): the wrist takes up the object's
+            slip in the hand, an integral feedback on the object. The shift stays after the carry (and
+            through a release reset), at most ``carry_limit`` in all. 0 (the paper): never.
+        carry_lift: height above its start (m) at which the object (and the reference's) counts as carried.
+        carry_limit: the most the wrist is shifted in all (m, the norm of the shift).
     """
 
     needs_rollouts = True
@@ -168,6 +177,9 @@ class Planner:
         pace_rate: Annotated[float, Ge(0)] = 0.0,
         pace_angle: Annotated[float, Gt(0)] | None = None,
         pace_window: tuple[float, float] | None = None,
+        carry_gain: Annotated[float, Ge(0)] = 0.0,
+        carry_lift: Annotated[float, Ge(0)] = 0.02,
+        carry_limit: Annotated[float, Ge(0)] = 0.1,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -183,6 +195,11 @@ class Planner:
         self.pace_rate = float(pace_rate)
         self.pace_angle = None if pace_angle is None else float(pace_angle)
         self.pace_window = time_window("planner.pace_window", pace_window)
+        self.carry_gain = float(carry_gain)
+        self.carry_lift = float(carry_lift)
+        self.carry_limit = float(carry_limit)
+        self._carry = np.zeros(3)  # the wrist's shift so far (carry_gain)
+        self._carry_at: float | None = None  # the control time of the last plan that shifted it
         # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
         # control time t1, then with control time
         self._clock = (0.0, 0.0, 1.0, np.inf)
@@ -241,6 +258,7 @@ class Planner:
         self.problem = problem
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
+        self._carry, self._carry_at = np.zeros(3), None
         self.dt = problem.scene.planner_model.opt.timestep
         self.steps = max(1, int(round(self.horizon / self.dt)))
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
@@ -451,6 +469,8 @@ class Planner:
             self.reset_approach()
         if self._release_at is not None and s >= self._release_at - 1e-9:
             self.release()
+        if self.carry_gain:
+            self.carry(t, s, state)
         self._plan_samples = self.samples_at(s)
         try:
             info = self._plan(s, state, rng, start)
@@ -540,8 +560,42 @@ class Planner:
         spline, at = self.problem.spline, self.problem.last_contact
         reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
         self.theta[reset] = self.problem.release_theta[reset]
+        if self.carry_gain:  # the wrist keeps the shift that carried the object
+            self.theta[reset, :3] += self._carry
         self._release_at = None
         return reset
+
+    def carry(self, t: float, s: float, state: np.ndarray) -> np.ndarray:
+        """Shift the wrist's committed translation by the object's slip (``carry_gain``), for the plan
+        made at control time ``t`` (reference time ``s``) from ``state``.
+
+        Returns:
+            (3,) the shift this plan made (zeros where the object is not carried).
+        """
+        problem = self.problem
+        scene, track = problem.scene, problem.track
+        free = scene.task.layout.free_columns
+        step = np.zeros(3)
+        dt = self.replan_period if self._carry_at is None else min(t - self._carry_at, 0.5)
+        self._carry_at = t
+        if not len(free) or dt <= 0:
+            return step
+        c = free[0]
+        qo = state[1 + scene.index.object_qpos]  # mjSTATE_FULLPHYSICS: the time, then qpos
+        expected = track.object_qpos[track.index(s)]
+        start = track.object_qpos[0, c + 2]
+        if min(qo[c + 2], expected[c + 2]) - start <= self.carry_lift:
+            return step
+        step = self.carry_gain * dt * (expected[c : c + 3] - qo[c : c + 3])
+        total = self._carry + step
+        norm = float(np.linalg.norm(total))
+        if norm > self.carry_limit:
+            total *= self.carry_limit / norm
+        step = total - self._carry
+        self._carry = total
+        first = self.problem.spline.window_indices(s, self.horizon)[0]
+        self.theta[first:, :3] += step
+        return step
 
     def reset_approach(self) -> np.ndarray:
         """Put the committed control points whose support meets the rest of the trial after
