@@ -531,9 +531,11 @@ def test_carry_shifts_the_wrist_by_the_carried_objects_slip_and_keeps_the_shift(
     assert not planner.carry(0.1, 0.1, at(0.1, slip)).any()  # not yet 2 cm up: no shift
     np.testing.assert_array_equal(planner.theta, theta)
     step = planner.carry(1.6, 1.6, at(1.6, slip))  # carried: 2/s x 1.5 s (capped at 0.5 s) x -slip
-    np.testing.assert_allclose(step, -2.0 * 0.5 * slip)
+    np.testing.assert_allclose(step[:3], -2.0 * 0.5 * slip)
+    assert not step[3:].any()  # (carry_turn 0: the hinges stay)
     first = problem.spline.window_indices(1.6, 0.2)[0]
-    np.testing.assert_allclose(planner.theta[first:, :3] - theta[first:, :3], np.tile(step, (12 - first, 1)))
+    shifted = planner.theta[first:, :3] - theta[first:, :3]
+    np.testing.assert_allclose(shifted, np.tile(step[:3], (12 - first, 1)))
     np.testing.assert_array_equal(planner.theta[:first], theta[:first])
     np.testing.assert_array_equal(planner.theta[:, 3:], theta[:, 3:])
     planner.carry_limit = 0.03
@@ -546,10 +548,48 @@ def test_carry_shifts_the_wrist_by_the_carried_objects_slip_and_keeps_the_shift(
     off.close()
 
 
+def test_carry_turns_the_wrist_toward_the_references_orientation_and_keeps_the_object_in_place(scene_for):
+    """planner.carry_turn: the hinge step turns the wrist (through its rotational Jacobian) by gain x dt x
+    the rotation from the object's orientation to the reference's, and the translation step cancels the
+    object's swing about the wrist to first order."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.object_qpos[:, 2] += np.linspace(0.0, 0.1, 11)
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    m = scene.planner_model
+    d = mujoco.MjData(m)
+    d.qpos[scene.index.hand_qpos] = scene.task.hand_home
+    qo = problem.track.object_qpos[problem.track.index(1.6)].copy()
+    expected_quat = qo[3:7].copy()
+    turned = np.zeros(4)
+    about_z = np.array([np.cos(0.1), 0.0, 0.0, np.sin(0.1)])  # 0.2 rad about world z
+    mujoco.mju_mulQuat(turned, about_z, expected_quat)
+    qo[3:7] = turned
+    d.qpos[scene.index.object_qpos] = qo
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, carry_gain=1.0, carry_turn=1.0)
+    planner.bind(problem)
+    planner.carry(1.1, 1.1, state)  # (the first plan: dt = replan_period)
+    step = planner.carry(1.6, 1.6, state)
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_comPos(m, d)
+    jacr = np.zeros((3, m.nv))
+    mujoco.mj_jacBody(m, d, None, jacr, scene.index.root_body)
+    omega = jacr[:, scene.index.hand_dof[3:6]] @ step[3:]
+    np.testing.assert_allclose(omega, [0.0, 0.0, -0.2 * 0.5], atol=1e-6)  # back toward the reference's
+    swing = np.cross(omega, qo[:3] - d.xpos[scene.index.root_body])
+    np.testing.assert_allclose(step[:3], -swing, atol=1e-9)  # (the object's position is the reference's)
+    planner.close()
+
+
 def test_a_carried_trial_runs_and_says_so(tmp_path, late_contact_reference):
     overrides = ["task=apple", f"task.reference_path={late_contact_reference[1]}", *TINY]
-    record = json.loads(run_job(overrides + ["job.progress=false", "carry=wrist"], tmp_path).read_text())
-    assert record["status"] == "ok" and record["config"]["planner"]["carry_gain"] == 1.0
+    record = json.loads(run_job(overrides + ["job.progress=false", "carry=pose"], tmp_path).read_text())
+    planner = record["config"]["planner"]
+    assert record["status"] == "ok" and planner["carry_gain"] == 1.0 and planner["carry_turn"] == 1.0
 
 
 def test_a_paced_reference_is_refused_online(scene_for):

@@ -149,6 +149,12 @@ class Planner:
             through a release reset), at most ``carry_limit`` in all. 0 (the paper): never.
         carry_lift: height above its start (m) at which the object (and the reference's) counts as carried.
         carry_limit: the most the wrist is shifted in all (m, the norm of the shift).
+        carry_turn: the same for the object's orientation (1/s; 0: its position only): the wrist's
+            committed hinge angles turn by this gain x the time since the last plan x the rotation that
+            takes the object's orientation to the reference's (world frame, through the wrist's rotational
+            Jacobian at the measured state), and its translation moves the object back where the turn
+            about the wrist would swing it; at most ``carry_turn_limit`` (rad) in all.
+        carry_turn_limit: the most the wrist's hinges are turned in all (rad, the norm of the turn).
     """
 
     needs_rollouts = True
@@ -180,6 +186,8 @@ class Planner:
         carry_gain: Annotated[float, Ge(0)] = 0.0,
         carry_lift: Annotated[float, Ge(0)] = 0.02,
         carry_limit: Annotated[float, Ge(0)] = 0.1,
+        carry_turn: Annotated[float, Ge(0)] = 0.0,
+        carry_turn_limit: Annotated[float, Ge(0)] = 0.5,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -198,7 +206,10 @@ class Planner:
         self.carry_gain = float(carry_gain)
         self.carry_lift = float(carry_lift)
         self.carry_limit = float(carry_limit)
-        self._carry = np.zeros(3)  # the wrist's shift so far (carry_gain)
+        self.carry_turn = float(carry_turn)
+        self.carry_turn_limit = float(carry_turn_limit)
+        self._carry = np.zeros(6)  # the wrist's shift so far (carry_gain): translation, hinge angles
+        self._carry_data = None  # (carry_turn) scratch data for the wrist's Jacobian
         self._carry_at: float | None = None  # the control time of the last plan that shifted it
         # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
         # control time t1, then with control time
@@ -258,7 +269,7 @@ class Planner:
         self.problem = problem
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
-        self._carry, self._carry_at = np.zeros(3), None
+        self._carry, self._carry_at = np.zeros(6), None
         self.dt = problem.scene.planner_model.opt.timestep
         self.steps = max(1, int(round(self.horizon / self.dt)))
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
@@ -561,7 +572,7 @@ class Planner:
         reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
         self.theta[reset] = self.problem.release_theta[reset]
         if self.carry_gain:  # the wrist keeps the shift that carried the object
-            self.theta[reset, :3] += self._carry
+            self.theta[reset, :6] += self._carry
         self._release_at = None
         return reset
 
@@ -570,12 +581,13 @@ class Planner:
         made at control time ``t`` (reference time ``s``) from ``state``.
 
         Returns:
-            (3,) the shift this plan made (zeros where the object is not carried).
+            (6,) the shift this plan made (translation, hinge angles; zeros where the object is not
+            carried).
         """
         problem = self.problem
         scene, track = problem.scene, problem.track
         free = scene.task.layout.free_columns
-        step = np.zeros(3)
+        step = np.zeros(6)
         dt = self.replan_period if self._carry_at is None else min(t - self._carry_at, 0.5)
         self._carry_at = t
         if not len(free) or dt <= 0:
@@ -586,16 +598,48 @@ class Planner:
         start = track.object_qpos[0, c + 2]
         if min(qo[c + 2], expected[c + 2]) - start <= self.carry_lift:
             return step
-        step = self.carry_gain * dt * (expected[c : c + 3] - qo[c : c + 3])
+        step[:3] = self.carry_gain * dt * (expected[c : c + 3] - qo[c : c + 3])
+        if self.carry_turn:
+            step += self._turn(state, qo[c : c + 7], expected[c + 3 : c + 7], self.carry_turn * dt)
         total = self._carry + step
-        norm = float(np.linalg.norm(total))
-        if norm > self.carry_limit:
-            total *= self.carry_limit / norm
+        for part, limit in ((slice(0, 3), self.carry_limit), (slice(3, 6), self.carry_turn_limit)):
+            norm = float(np.linalg.norm(total[part]))
+            if norm > limit:
+                total[part] *= limit / norm
         step = total - self._carry
         self._carry = total
         first = self.problem.spline.window_indices(s, self.horizon)[0]
-        self.theta[first:, :3] += step
+        self.theta[first:, :6] += step
         return step
+
+    def _turn(self, state: np.ndarray, pose: np.ndarray, quat: np.ndarray, gain: float) -> np.ndarray:
+        """(6,) the wrist's shift that turns the object at ``pose`` (position, quaternion w x y z) by
+        ``gain`` x the rotation to ``quat``: hinge angles through the root body's rotational Jacobian at
+        ``state``, and the translation that keeps the object where it is under that turn."""
+        import mujoco
+
+        scene = self.problem.scene
+        m = scene.planner_model
+        if self._carry_data is None:
+            self._carry_data = mujoco.MjData(m)
+        d = self._carry_data
+        d.qpos[:] = state[1 : 1 + m.nq]  # mjSTATE_FULLPHYSICS: the time, then qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        jacr = np.zeros((3, m.nv))
+        root = scene.index.root_body
+        mujoco.mj_jacBody(m, d, None, jacr, root)
+        hinges = scene.index.hand_dof[3:6]
+        error = np.zeros(3)
+        q = np.asarray(pose[3:7], float)
+        mujoco.mju_subQuat(error, np.asarray(quat, float), q / np.linalg.norm(q))  # in the object's frame
+        world = np.zeros(9)
+        mujoco.mju_quat2Mat(world, q / np.linalg.norm(q))
+        omega = gain * world.reshape(3, 3) @ error  # the rotation to apply, world frame
+        out = np.zeros(6)
+        out[3:] = np.linalg.lstsq(jacr[:, hinges], omega, rcond=None)[0]
+        out[:3] = -np.cross(jacr[:, hinges] @ out[3:], pose[:3] - d.xpos[root])
+        return out
 
     def reset_approach(self) -> np.ndarray:
         """Put the committed control points whose support meets the rest of the trial after
