@@ -439,7 +439,8 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
         paths = [f"/x/{name.format(s)}/trial.json" for s in seeds]
         return pd.DataFrame({"task": "stapler", "variant": spec.METHOD, "seed": list(seeds), "counted": True,
                              "completed": True, "finished_cleanly": clean, "cpu_seconds": 300.0,
-                             "status": "ok", "record_path": paths})  # fmt: skip
+                             "status": "ok", "record_path": paths, "_span": 0.03,
+                             "_final": 0.04})  # fmt: skip
 
     chosen = trials(range(10), [True] * 5 + [False, True] + [False] * 3)
     lever = trials([4, 5, 6], [True, True, False], True)
@@ -452,7 +453,7 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
 
     text = spec.levers_section(Drawn(), chosen)
     assert "| `pacing=release place=wrist` | stapler | 4-6 | 3 of 3 | 2 of 3 | 3 of 3 | 2 of 3 |" in text
-    assert "| 5 | 6 | 1.00 |" in text  # clean only with the lever: 5; only without: 6
+    assert "| 5 | 6 | 30 / 30 | 40 / 40 | 1.00 |" in text  # clean only with the lever: 5; only without: 6
     assert "`place=wrist`: The wrist sampled while the object is set down" in text
     assert (tmp_path / "levers.png").stat().st_size > 0
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: trials([], []))

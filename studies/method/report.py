@@ -611,35 +611,47 @@ def _lever_text(lever: str) -> str:
     for part in lever.split():
         key, member = part.split("=", 1)
         path = CONF / key / f"{member}.yaml"
-        out.append(f"`{part}`: " + (_comment(path) if path.is_file() else LEVER_TEXT.get(part, "")))
-    return "; ".join(out)
+        text = _comment(path) if path.is_file() else LEVER_TEXT.get(part, "")
+        out.append(f"`{part}`: " + text.rstrip("."))
+    return "; ".join(out) + "."
 
 
-def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int]]) -> None:
-    """Per task, the method's and each lever's trials finished cleanly and completed, as bars (of the
-    seeds the lever has): ``rows`` of ``(task, name, n, completed, clean)``."""
+def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int]]) -> None:
+    """Per task, each lever's trials finished cleanly (solid) and completed (pale) beside the method's on the
+    same seeds (grey): ``rows`` of ``(task, lever, n, completed, clean, method's completed, method's
+    clean)``."""
     import matplotlib.pyplot as plt
 
     tasks = list(dict.fromkeys(r[0] for r in rows))
-    names = list(dict.fromkeys(r[1] for r in rows))
-    fig, axes = plt.subplots(1, len(tasks), figsize=(3.2 * len(tasks), 3.4), squeeze=False, sharey=True)
+    levers = list(dict.fromkeys(r[1] for r in rows))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    width = max(3.2, 0.9 * max(sum(r[0] == t for r in rows) for t in tasks) + 1.0)
+    fig, axes = plt.subplots(1, len(tasks), figsize=(width * len(tasks), 4.2), squeeze=False, sharey=True)
     for ax, task in zip(axes[0], tasks, strict=True):
         mine = [r for r in rows if r[0] == task]
-        for i, (_, name, n, done, clean) in enumerate(mine):
-            c = colors[names.index(name) % len(colors)]
-            ax.bar(i, done / n, color=c, alpha=0.35)
-            ax.bar(i, clean / n, color=c, label=name if task == tasks[0] else None)
-            ax.text(i, done / n + 0.02, f"{clean}/{done}/{n}", ha="center", fontsize=7)
+        for i, (_, lever, n, done, clean, base_done, base_clean) in enumerate(mine):
+            c = colors[levers.index(lever) % len(colors)]
+            for x, color, k, kc in ((i - 0.2, "0.55", base_done, base_clean), (i + 0.2, c, done, clean)):
+                ax.bar(x, k / n, width=0.38, color=color, alpha=0.35)
+                ax.bar(x, kc / n, width=0.38, color=color)
+                ax.text(x, k / n + 0.02, f"{kc}/{k}/{n}", ha="center", fontsize=6)
         ax.axhline(TARGET_CLEAN / TARGET_SEEDS, color="k", lw=0.8, ls="--")
         ax.set_title(task)
-        ax.set_xticks([])
+        ax.set_xticks(range(len(mine)), [r[1].replace(" ", "\n") for r in mine], fontsize=7, rotation=30)
         ax.set_ylim(0, 1.12)
     axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
-    fig.legend(loc="lower center", ncol=min(len(names), 3), fontsize=7, frameon=False)
-    fig.tight_layout(rect=(0, 0.12 + 0.04 * (len(names) // 4), 1, 1))
+    fig.suptitle(
+        f"each lever (colour) beside {METHOD} on the same seeds (grey); clean/completed/seeds", fontsize=8
+    )
+    fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def _mm(values: pd.Series) -> str:
+    """The median of ``values`` (m) in whole mm; blank where there is none."""
+    v = pd.to_numeric(values, errors="coerce").median()
+    return "" if math.isnan(v) else f"{1e3 * v:.0f}"
 
 
 def levers_section(study, chosen: pd.DataFrame) -> str:
@@ -669,17 +681,17 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             ratio = h["cpu_seconds"].median() / c["cpu_seconds"].median() if len(c) else math.nan
             with_lever, without = (set(x.loc[x["finished_cleanly"], "seed"]) for x in (h, c))
             only, lost = sorted(with_lever - without), sorted(without - with_lever)
+            errors = " | ".join(f"{_mm(h[col])} / {_mm(c[col])}" for col in ("_span", "_final"))
             rows.append(
                 f"| `{lever}` | {task} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
                 f"| {of(ck, len(c))} | {of(cc, len(c))} | {Fmt.p(p)} | {seeds(only)} | {seeds(lost)} "
-                f"| {'' if math.isnan(ratio) else f'{ratio:.2f}'} |"
+                f"| {errors} | {'' if math.isnan(ratio) else f'{ratio:.2f}'} |"
             )
-            if len(c):
-                fig_rows += [(task, METHOD, len(c), ck, cc), (task, lever, len(h), hk, hc)]
+            if len(c) == len(h):
+                fig_rows.append((task, lever, len(h), hk, hc, ck, cc))
     cols = ("lever", "task", "seeds", "completed", "finished cleanly", f"`{METHOD}`: completed",
             "finished cleanly", "Barnard p (clean)", "clean only with the lever", "clean only without",
-            "CPU-s, x the method's")  # fmt: skip
-    fig_rows = list(dict.fromkeys(fig_rows))
+            "object error over the span, mm: lever / method", "final", "CPU-s, x the method's")  # fmt: skip
     link = (
         study.draw(
             "levers.png",
@@ -694,9 +706,13 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         + "The levers:\n\n"
         + "\n".join(notes)
         + "\n\n"
-        + pipe_table(cols, "lllrrrrrllr", rows)
+        + pipe_table(cols, "lllrrrrrllrrr", rows)
         + "\nBarnard's exact two-sided p on finishing cleanly (the seeds are paired, the test treats the two "
-        "sides as independent samples); CPU-s: the medians' ratio, on the seeds both have.\n"
+        "sides as independent samples); the object's position error, the median over the trials of its mean "
+        "over the contact span, and at the trial's end; CPU-s: the medians' ratio, on the seeds both have "
+        "(the method's trials ran at earlier code revisions, so a ratio below 1 for a lever that adds no "
+        "rollouts is the code's speed-up since, not the lever's). A lever with fewer seeds than the "
+        "sweep's was stopped for one that looked more promising: its counts are of its seeds only.\n"
         + (f"\n{link}\n" if link else "")
     )
 
