@@ -597,11 +597,14 @@ def lever_of(record_path) -> str:
 
 
 def lever_frame(study) -> pd.DataFrame:
-    """The lever trials that count (:data:`LEVERS`, on the planned tasks and seeds), each with its
-    ``lever`` (:func:`lever_of`)."""
+    """The lever trials that count (:data:`LEVERS`, on the planned tasks, any seed), each with its
+    ``lever`` (:func:`lever_of`) and ``seeds`` (``"sweep"`` on the sweep's seeds, else ``"held out"``)."""
     df = frame(study, LEVERS)
-    ok = counted(df) if len(df) else df
-    return ok.assign(lever=[lever_of(p) for p in ok["record_path"]]) if len(ok) else ok.assign(lever=[])
+    ok = df[df["counted"] & df["task"].isin(plan()[0])] if len(df) else df
+    if not len(ok):
+        return ok.assign(lever=[], seeds=[])
+    half = np.where(ok["seed"].isin(plan()[1]), "sweep", "held out")
+    return ok.assign(lever=[lever_of(p) for p in ok["record_path"]], seeds=half)
 
 
 def _lever_text(lever: str) -> str:
@@ -665,13 +668,14 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     ok = lever_frame(study)
     if not len(ok):
         return head + "No such trial is kept yet.\n"
-    base = counted(chosen)
+    held = frame(study, HELDOUT)  # the method's own trials on the held-out seeds
+    base = pd.concat([counted(chosen), held[held["counted"]] if len(held) else held])
     base = base[base["variant"] == METHOD] if len(base) else base
     rows, fig_rows, notes = [], [], []
     for lever, g in ok.groupby("lever", sort=True):
         notes.append(f"- {_lever_text(lever)}")
-        for task in plan()[0]:
-            h = g[g["task"] == task].sort_values("seed")
+        for task, half in ((t, h) for t in plan()[0] for h in ("sweep", "held out")):
+            h = g[(g["task"] == task) & (g["seeds"] == half)].sort_values("seed")
             if not len(h):
                 continue
             c = base[(base["task"] == task) & base["seed"].isin(h["seed"])]
@@ -682,13 +686,15 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             with_lever, without = (set(x.loc[x["finished_cleanly"], "seed"]) for x in (h, c))
             only, lost = sorted(with_lever - without), sorted(without - with_lever)
             errors = " | ".join(f"{_mm(h[col])} / {_mm(c[col])}" for col in ("_span", "_final"))
+            where = task if half == "sweep" else f"{task} (held out)"
             rows.append(
-                f"| `{lever}` | {task} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
+                f"| `{lever}` | {where} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
                 f"| {of(ck, len(c))} | {of(cc, len(c))} | {Fmt.p(p)} | {seeds(only)} | {seeds(lost)} "
                 f"| {errors} | {'' if math.isnan(ratio) else f'{ratio:.2f}'} |"
             )
             if len(c) == len(h):
-                fig_rows.append((task, lever, len(h), hk, hc, ck, cc))
+                name = lever if half == "sweep" else f"{lever} (held out)"
+                fig_rows.append((task, name, len(h), hk, hc, ck, cc))
     best = []  # per task, the lever with the most seeds finished cleanly beyond the method's (of >= 5 seeds)
     for task in plan()[0]:
         mine = [r for r in fig_rows if r[0] == task and r[2] >= 5]
