@@ -700,10 +700,14 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         mine = [r for r in fig_rows if r[0] == task and r[2] >= 5]
         if mine:
             t, lever, n, _, clean, _, base_clean = max(mine, key=lambda r: ((r[4] - r[6]) / r[2], r[2]))
-            best.append(f"{task}: `{lever}`, {clean} of {n} finished cleanly against {base_clean} of {n}")
+            best.append(
+                f"{task}: `{lever}`, {clean} of {n} finished cleanly against {base_clean} of {n} "
+                f"({clean - base_clean:+d})"
+            )
     summary = (
-        "Per task, the lever run on at least 5 seeds that finished cleanly most often beyond the method on "
-        "the same seeds (the difference as a share of the seeds): " + "; ".join(best) + ".\n\n"
+        "Per task, of the levers run on at least 5 seeds, the one with the largest difference in trials "
+        "finished cleanly against the method on the same seeds (as a share of the seeds; a negative "
+        "difference: none did better): " + "; ".join(best) + ".\n\n"
         if best
         else ""
     )
