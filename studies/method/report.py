@@ -663,7 +663,8 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     head = (
         f"Options on top of `{METHOD}` run as full trials on the sweep's seeds (stapler first, the task "
         f"furthest from the target, then the bottle and the apple; seeds vary fastest), kept in `{LEVERS}/` "
-        f"(`{LEVERS_RUN}`), each against `{METHOD}`'s own trials on the same seeds.\n\n"
+        f"(`{LEVERS_RUN}`), each against `{METHOD}`'s own trials on the same seeds (on seeds "
+        f"{HELDOUT_SEEDS}, its held-out trials: *On seeds it was not chosen on*).\n\n"
     )
     ok = lever_frame(study)
     if not len(ok):
