@@ -17,6 +17,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Annotated, NamedTuple
 
+import mujoco
 import numpy as np
 
 from contactmpc.control.cost import as_index
@@ -577,8 +578,9 @@ class Planner:
         return reset
 
     def carry(self, t: float, s: float, state: np.ndarray) -> np.ndarray:
-        """Shift the wrist's committed translation by the object's slip (``carry_gain``), for the plan
-        made at control time ``t`` (reference time ``s``) from ``state``.
+        """Shift the wrist's committed translation by the object's slip (``carry_gain``; with
+        ``carry_turn`` also its hinges by the object's turn), for the plan made at control time ``t``
+        (reference time ``s``) from ``state``.
 
         Returns:
             (6,) the shift this plan made (translation, hinge angles; zeros where the object is not
@@ -616,8 +618,6 @@ class Planner:
         """(6,) the wrist's shift that turns the object at ``pose`` (position, quaternion w x y z) by
         ``gain`` x the rotation to ``quat``: hinge angles through the root body's rotational Jacobian at
         ``state``, and the translation that keeps the object where it is under that turn."""
-        import mujoco
-
         scene = self.problem.scene
         m = scene.planner_model
         if self._carry_data is None:
@@ -630,11 +630,11 @@ class Planner:
         root = scene.index.root_body
         mujoco.mj_jacBody(m, d, None, jacr, root)
         hinges = scene.index.hand_dof[3:6]
-        error = np.zeros(3)
+        error, world = np.zeros(3), np.zeros(9)
         q = np.asarray(pose[3:7], float)
-        mujoco.mju_subQuat(error, np.asarray(quat, float), q / np.linalg.norm(q))  # in the object's frame
-        world = np.zeros(9)
-        mujoco.mju_quat2Mat(world, q / np.linalg.norm(q))
+        q = q / np.linalg.norm(q)
+        mujoco.mju_subQuat(error, np.asarray(quat, float), q)  # in the object's frame
+        mujoco.mju_quat2Mat(world, q)
         omega = gain * world.reshape(3, 3) @ error  # the rotation to apply, world frame
         out = np.zeros(6)
         out[3:] = np.linalg.lstsq(jacr[:, hinges], omega, rcond=None)[0]
