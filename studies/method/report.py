@@ -651,12 +651,6 @@ def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int
     plt.close(fig)
 
 
-def _mm(values: pd.Series) -> str:
-    """The median of ``values`` (m) in whole mm; blank where there is none."""
-    v = pd.to_numeric(values, errors="coerce").median()
-    return "" if math.isnan(v) else f"{1e3 * v:.0f}"
-
-
 def levers_section(study, chosen: pd.DataFrame) -> str:
     """Each lever on top of the method (:data:`LEVERS`) against the method's own trials on the same seeds,
     per task: the counts, Barnard's test on finishing cleanly, the CPU-s ratio; a figure of the counts."""
@@ -686,7 +680,8 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             ratio = h["cpu_seconds"].median() / c["cpu_seconds"].median() if len(c) else math.nan
             with_lever, without = (set(x.loc[x["finished_cleanly"], "seed"]) for x in (h, c))
             only, lost = sorted(with_lever - without), sorted(without - with_lever)
-            errors = " | ".join(f"{_mm(h[col])} / {_mm(c[col])}" for col in ("_span", "_final"))
+            mm = [f"{median(x[col], scale=1e3)}" for col in ("_span", "_final") for x in (h, c)]
+            errors = f"{mm[0]} / {mm[1]} | {mm[2]} / {mm[3]}"
             where = task if half == "sweep" else f"{task} (held out)"
             rows.append(
                 f"| `{lever}` | {where} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
@@ -696,7 +691,7 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             if len(c) == len(h):
                 name = lever if half == "sweep" else f"{lever} (held out)"
                 fig_rows.append((task, name, len(h), hk, hc, ck, cc))
-    best = []  # per task, the lever with the most seeds finished cleanly beyond the method's (of >= 5 seeds)
+    best = []  # per task, the lever (of >= 5 seeds) with the largest difference in seeds finished cleanly
     whole: dict[tuple[str, str], np.ndarray] = {}  # a lever's counts over all its seeds, held out too
     for task, name, *counts in fig_rows:
         key = (task, name.removesuffix(" (held out)"))
@@ -704,7 +699,7 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     for task in plan()[0]:
         mine = [(k[0], k[1], *v) for k, v in whole.items() if k[0] == task and v[0] >= 5]
         if mine:
-            t, lever, n, _, clean, _, base_clean = max(mine, key=lambda r: ((r[4] - r[6]) / r[2], r[2]))
+            _, lever, n, _, clean, _, base_clean = max(mine, key=lambda r: ((r[4] - r[6]) / r[2], r[2]))
             best.append(
                 f"{task}: `{lever}`, {clean} of {n} finished cleanly against {base_clean} of {n} "
                 f"({clean - base_clean:+d})"

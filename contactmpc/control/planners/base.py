@@ -211,7 +211,7 @@ class Planner:
         self.carry_turn_limit = float(carry_turn_limit)
         self._carry = np.zeros(6)  # the wrist's shift so far (carry_gain): translation, hinge angles
         self._carry_data = None  # (carry_turn) scratch data for the wrist's Jacobian
-        self._carry_at: float | None = None  # the control time of the last plan that shifted it
+        self._carry_at: float | None = None  # the control time of the last plan (carry_gain)
         # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
         # control time t1, then with control time
         self._clock = (0.0, 0.0, 1.0, np.inf)
@@ -610,7 +610,7 @@ class Planner:
                 total[part] *= limit / norm
         step = total - self._carry
         self._carry = total
-        first = self.problem.spline.window_indices(s, self.horizon)[0]
+        first = problem.spline.window_indices(s, self.horizon)[0]
         self.theta[first:, :6] += step
         return step
 
