@@ -548,6 +548,49 @@ def test_carry_shifts_the_wrist_by_the_carried_objects_slip_and_keeps_the_shift(
     off.close()
 
 
+def test_carry_waits_until_the_object_has_been_carried_for_carry_hold(scene_for):
+    """planner.carry_hold: no shift until the object (and the reference's) have been lifted more than
+    carry_lift for carry_hold seconds without a break; a break (the object back down) starts the wait
+    again. At 0, the same shift as without it."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=3.0, frames=31)
+    ref.object_qpos[1:, 2] += 0.1  # the reference's object 10 cm up from 0.1 s on
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 20)
+    m = scene.planner_model
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    track, slip = problem.track, np.array([0.01, -0.02, 0.0])
+
+    def at(s, lifted=True):
+        state[1 + scene.index.object_qpos] = track.object_qpos[track.index(s)]
+        state[1 + scene.index.object_qpos[:3]] += slip
+        if not lifted:
+            state[1 + scene.index.object_qpos[2]] -= 0.1
+        return state
+
+    held = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=1.0,
+                              carry_hold=0.5)
+    held.bind(problem)
+    assert not held.carry(0.2, 0.2, at(0.2)).any()  # carried from 0.2 s on
+    assert not held.carry(0.6, 0.6, at(0.6)).any()  # 0.4 s: not yet
+    assert held.carry(0.7, 0.7, at(0.7)).any()  # 0.5 s: the grasp has held
+    shift = held._carry.copy()
+    assert not held.carry(0.8, 0.8, at(0.8, lifted=False)).any()  # set down: the wait starts again
+    assert not held.carry(0.9, 0.9, at(0.9)).any()
+    assert not held.carry(1.3, 1.3, at(1.3)).any()
+    assert held.carry(1.4, 1.4, at(1.4)).any()
+    np.testing.assert_allclose(held._carry[:3], 2 * shift[:3])  # (the shift kept through the break)
+    held.close()
+    for hold in (0.0, None):
+        kwargs = {} if hold is None else {"carry_hold": hold}
+        planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=1.0,
+                                     **kwargs)
+        planner.bind(problem)
+        np.testing.assert_allclose(planner.carry(0.2, 0.2, at(0.2))[:3], -0.1 * slip)
+        planner.close()
+
+
 def test_carry_turns_the_wrist_toward_the_references_orientation_and_keeps_the_object_in_place(scene_for):
     """planner.carry_turn: the hinge step turns the wrist (through its rotational Jacobian) by gain x dt x
     the rotation from the object's orientation to the reference's, and the translation step cancels the
@@ -590,6 +633,14 @@ def test_a_carried_trial_runs_and_says_so(tmp_path, late_contact_reference):
     record = json.loads(run_job(overrides + ["job.progress=false", "carry=pose"], tmp_path).read_text())
     planner = record["config"]["planner"]
     assert record["status"] == "ok" and planner["carry_gain"] == 1.0 and planner["carry_turn"] == 1.0
+
+
+def test_carry_held_composes_the_wrist_carry_with_a_hold(tmp_path, late_contact_reference):
+    overrides = ["task=apple", f"task.reference_path={late_contact_reference[1]}", *TINY]
+    record = json.loads(run_job(overrides + ["job.progress=false", "carry=held"], tmp_path).read_text())
+    planner = record["config"]["planner"]
+    assert record["status"] == "ok" and planner["carry_gain"] == 1.0 and planner["carry_hold"] == 1.0
+    assert planner["carry_turn"] == 0.0
 
 
 def test_a_paced_reference_is_refused_online(scene_for):

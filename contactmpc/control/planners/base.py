@@ -156,6 +156,9 @@ class Planner:
             Jacobian at the measured state), and its translation moves the object back where the turn
             about the wrist would swing it; at most ``carry_turn_limit`` (rad) in all.
         carry_turn_limit: the most the wrist's hinges are turned in all (rad, the norm of the turn).
+        carry_hold: control time (s) the object must have been carried (both above ``carry_lift``, without
+            a break) before the carry shifts the wrist: the grasp has held, so the feedback does not pull
+            on an object the hand is still lifting. 0: from the first plan it is carried.
     """
 
     needs_rollouts = True
@@ -189,6 +192,7 @@ class Planner:
         carry_limit: Annotated[float, Ge(0)] = 0.1,
         carry_turn: Annotated[float, Ge(0)] = 0.0,
         carry_turn_limit: Annotated[float, Ge(0)] = 0.5,
+        carry_hold: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -209,6 +213,8 @@ class Planner:
         self.carry_limit = float(carry_limit)
         self.carry_turn = float(carry_turn)
         self.carry_turn_limit = float(carry_turn_limit)
+        self.carry_hold = float(carry_hold)
+        self._carry_since: float | None = None  # control time the object has been carried since (carry_hold)
         self._carry = np.zeros(6)  # the wrist's shift so far (carry_gain): translation, hinge angles
         self._carry_data = None  # (carry_turn) scratch data for the wrist's Jacobian
         self._carry_at: float | None = None  # the control time of the last plan (carry_gain)
@@ -270,7 +276,7 @@ class Planner:
         self.problem = problem
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
-        self._carry, self._carry_at = np.zeros(6), None
+        self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
         self.dt = problem.scene.planner_model.opt.timestep
         self.steps = max(1, int(round(self.horizon / self.dt)))
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
@@ -599,6 +605,11 @@ class Planner:
         expected = track.object_qpos[track.index(s)]
         start = track.object_qpos[0, c + 2]
         if min(qo[c + 2], expected[c + 2]) - start <= self.carry_lift:
+            self._carry_since = None
+            return step
+        if self._carry_since is None:
+            self._carry_since = t
+        if t - self._carry_since < self.carry_hold - 1e-9:
             return step
         step[:3] = self.carry_gain * dt * (expected[c : c + 3] - qo[c : c + 3])
         if self.carry_turn:
