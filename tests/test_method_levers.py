@@ -569,8 +569,9 @@ def test_carry_waits_until_the_object_has_been_carried_for_carry_hold(scene_for)
             state[1 + scene.index.object_qpos[2]] -= 0.1
         return state
 
-    held = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=1.0,
-                              carry_hold=0.5)
+    held = PredictiveSampling(
+        num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=1.0, carry_hold=0.5
+    )
     held.bind(problem)
     assert not held.carry(0.2, 0.2, at(0.2)).any()  # carried from 0.2 s on
     assert not held.carry(0.6, 0.6, at(0.6)).any()  # 0.4 s: not yet
@@ -584,8 +585,9 @@ def test_carry_waits_until_the_object_has_been_carried_for_carry_hold(scene_for)
     held.close()
     for hold in (0.0, None):
         kwargs = {} if hold is None else {"carry_hold": hold}
-        planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=1.0,
-                                     **kwargs)
+        planner = PredictiveSampling(
+            num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=1.0, **kwargs
+        )
         planner.bind(problem)
         np.testing.assert_allclose(planner.carry(0.2, 0.2, at(0.2))[:3], -0.1 * slip)
         planner.close()
