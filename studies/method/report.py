@@ -711,6 +711,24 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         if best
         else ""
     )
+    apart = []  # per lever, its trials whose seed the method ran on another processor
+    where = base.set_index(["task", "seed"])["cpu"] if "cpu" in base else pd.Series(dtype=object)
+    where = where[~where.index.duplicated()]
+    for lever, g in ok.groupby("lever", sort=True):
+        pairs = [(r["task"], r["seed"], r.get("cpu")) for r in g.to_dict("records")]
+        off = [(t, sd) for t, sd, cpu in pairs if (t, sd) in where.index and where[(t, sd)] != cpu]
+        if off:
+            per = "; ".join(
+                f"{t} {seeds([sd for tt, sd in off if tt == t])}" for t in sorted({t for t, _ in off})
+            )
+            apart.append(f"`{lever}` {len(off)} of {len(pairs)} ({per})")
+    cpus = (
+        "Trials whose seed the method ran on another processor (a lent 16-core machine's or this one's; "
+        "the same config and seed on another processor is another draw, so for these only the counts "
+        "compare, not the seeds): " + "; ".join(apart) + ".\n\n"
+        if apart
+        else ""
+    )
     cols = ("lever", "task", "seeds", "completed", "finished cleanly", f"`{METHOD}`: completed",
             "finished cleanly", "Barnard p (clean)", "clean only with the lever", "clean only without",
             "object error over the span, mm: lever / method", "final", "CPU-s, x the method's")  # fmt: skip
@@ -726,6 +744,7 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     return (
         head
         + summary
+        + cpus
         + "The levers:\n\n"
         + "\n".join(notes)
         + "\n\n"
