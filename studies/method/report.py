@@ -642,6 +642,7 @@ def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int
         ax.set_title(task)
         ax.set_xticks(range(len(mine)), [r[1].replace(" ", "\n") for r in mine], fontsize=7, rotation=30)
         ax.set_ylim(0, 1.12)
+        ax.set_xlim(-0.6, max(len(mine), 3) - 0.4)  # a task with one lever keeps narrow bars
     axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
     fig.suptitle(
         f"each lever (colour) beside {METHOD} on the same seeds (grey); clean/completed/seeds", fontsize=8
