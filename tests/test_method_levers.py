@@ -593,6 +593,25 @@ def test_carry_waits_until_the_object_has_been_carried_for_carry_hold(scene_for)
         planner.close()
 
 
+def test_carry_leaves_an_object_without_a_free_body_alone(scene_for):
+    """planner.carry_gain on the doorknob (no free body): no shift at any time, so carry=wrist|held|pose is
+    the method itself there."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("doorknob")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    state = np.zeros(mujoco.mj_stateSize(scene.planner_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    state[1 + scene.index.object_qpos] = 1.0  # far from the reference's articulation
+    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, carry_gain=1.0, carry_turn=1.0)
+    planner.bind(problem)
+    theta = planner.theta.copy()
+    for t in (0.1, 0.5, 0.9):
+        assert not planner.carry(t, t, state).any()
+    np.testing.assert_array_equal(planner.theta, theta)
+    planner.close()
+
+
 def test_carry_turns_the_wrist_toward_the_references_orientation_and_keeps_the_object_in_place(scene_for):
     """planner.carry_turn: the hinge step turns the wrist (through its rotational Jacobian) by gain x dt x
     the rotation from the object's orientation to the reference's, and the translation step cancels the
