@@ -712,6 +712,23 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         if best
         else ""
     )
+    pooled = []  # per lever, over every task and seed it ran on (at least 10 trials)
+    for lever in dict.fromkeys(k[1] for k in whole):
+        n, done, clean, base_done, base_clean = sum(v for k, v in whole.items() if k[1] == lever)
+        if n >= 10:
+            p, _ = completion_test(clean, n, base_clean, n)
+            tasks = [k[0] for k in whole if k[1] == lever]
+            text = (
+                f"`{lever}` ({', '.join(tasks)}): {clean} of {n} finished cleanly against {base_clean} "
+                f"({clean - base_clean:+d}), completed {done} against {base_done}, Barnard p = {Fmt.p(p)}"
+            )
+            pooled.append((clean - base_clean, text))
+    if pooled:
+        pooled.sort(key=lambda r: -r[0])
+        summary += (
+            "Pooled over the tasks each lever ran on (levers with at least 10 trials; its seeds and the "
+            "method's on the same seeds): " + "; ".join(text for _, text in pooled) + ".\n\n"
+        )
     apart = []  # per lever, its trials whose seed the method ran on another processor
     where = base.set_index(["task", "seed"])["cpu"] if "cpu" in base else pd.Series(dtype=object)
     where = where[~where.index.duplicated()]
