@@ -462,11 +462,14 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: trials([], []))
     assert spec.levers_section(Drawn(), chosen).endswith("No such trial is kept yet.\n")
     assert "Pooled over" not in text  # (5 trials: too few to pool)
-    # ten seeds: pooled against the method, and the seeds whose trial ran on another processor than the method's
+    # ten seeds: pooled against the method; the seeds whose trial ran on another processor than the method's
     lever = trials(range(10), [True] * 8 + [False] * 2, True).assign(cpu=["B"] * 3 + ["A"] * 7)
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: lever if folder == spec.LEVERS else held)
     text = spec.levers_section(Drawn(), chosen.assign(cpu="A"))
-    assert "`pacing=release place=wrist` (stapler): 8 of 10 finished cleanly against 6 (+2), completed 10" in text
+    assert (
+        "`pacing=release place=wrist` (stapler): 8 of 10 finished cleanly against 6 (+2), completed 10"
+        in text
+    )
     assert "`pacing=release place=wrist` 3 of 10 (stapler 0-2)" in text
 
 
