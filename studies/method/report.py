@@ -667,9 +667,10 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     held = frame(study, HELDOUT)  # the method's own trials on the held-out seeds
     base = pd.concat([counted(chosen), held[held["counted"]] if len(held) else held])
     base = base[base["variant"] == METHOD] if len(base) else base
-    rows, fig_rows, notes = [], [], []
+    rows, fig_rows = [], []
+    # each override once, also where several levers combine it (carry=pose, carry=pose pacing=release)
+    notes = [f"- {_lever_text(part)}" for part in sorted({p for lever in ok["lever"] for p in lever.split()})]
     for lever, g in ok.groupby("lever", sort=True):
-        notes.append(f"- {_lever_text(lever)}")
         for task, half in ((t, h) for t in plan()[0] for h in ("sweep", "held out")):
             h = g[(g["task"] == task) & (g["seeds"] == half)].sort_values("seed")
             if not len(h):
