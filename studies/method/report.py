@@ -626,17 +626,18 @@ def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int
     import matplotlib.pyplot as plt
 
     tasks = list(dict.fromkeys(r[0] for r in rows))
-    levers = list(dict.fromkeys(r[1] for r in rows))
+    levers = list(dict.fromkeys(r[1].removesuffix(" (held out)") for r in rows))  # a lever's colour
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     width = max(3.2, 0.9 * max(sum(r[0] == t for r in rows) for t in tasks) + 1.0)
     fig, axes = plt.subplots(1, len(tasks), figsize=(width * len(tasks), 4.2), squeeze=False, sharey=True)
     for ax, task in zip(axes[0], tasks, strict=True):
         mine = [r for r in rows if r[0] == task]
         for i, (_, lever, n, done, clean, base_done, base_clean) in enumerate(mine):
-            c = colors[levers.index(lever) % len(colors)]
+            c = colors[levers.index(lever.removesuffix(" (held out)")) % len(colors)]
+            hatch = "//" if lever.endswith("(held out)") else None  # the held-out seeds hatched
             for x, color, k, kc in ((i - 0.2, "0.55", base_done, base_clean), (i + 0.2, c, done, clean)):
                 ax.bar(x, k / n, width=0.38, color=color, alpha=0.35)
-                ax.bar(x, kc / n, width=0.38, color=color)
+                ax.bar(x, kc / n, width=0.38, color=color, hatch=hatch, edgecolor="white" if hatch else None)
                 ax.text(x, k / n + 0.02, f"{kc}/{k}/{n}", ha="center", fontsize=6)
         ax.axhline(TARGET_CLEAN / TARGET_SEEDS, color="k", lw=0.8, ls="--")
         ax.set_title(task)
