@@ -586,6 +586,8 @@ LEVERS_RUN = (
 LEVER_TEXT = {
     "cost.lambda_c=3.0": "the contact term x3 (`cost.lambda_c`; the paper's 1): the stapler's grasp screen "
     "lifted it on 16 of 20 seeds against the method's 12 (the method_screen study)",
+    "planner.carry_hold=1.0": "the carry's wait until the grasp has held (`carry=held`'s 1 s), here on top "
+    "of `carry=pose`",
 }
 
 
