@@ -579,6 +579,8 @@ def heldout(study, chosen: pd.DataFrame) -> str:
 
 
 LEVERS = "levers"
+#: Appended to a lever's name (and a task's) for its trials on the held-out seeds.
+HELD_OUT = " (held out)"
 LEVERS_RUN = (
     'TASKS="stapler bottle apple" OUT=studies/method/levers bash studies/method/run_levers.sh <overrides>'
 )
@@ -628,15 +630,15 @@ def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int
     import matplotlib.pyplot as plt
 
     tasks = list(dict.fromkeys(r[0] for r in rows))
-    levers = list(dict.fromkeys(r[1].removesuffix(" (held out)") for r in rows))  # a lever's colour
+    levers = list(dict.fromkeys(r[1].removesuffix(HELD_OUT) for r in rows))  # a lever's colour
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     width = max(3.2, 0.9 * max(sum(r[0] == t for r in rows) for t in tasks) + 1.0)
     fig, axes = plt.subplots(1, len(tasks), figsize=(width * len(tasks), 4.2), squeeze=False, sharey=True)
     for ax, task in zip(axes[0], tasks, strict=True):
         mine = [r for r in rows if r[0] == task]
         for i, (_, lever, n, done, clean, base_done, base_clean) in enumerate(mine):
-            c = colors[levers.index(lever.removesuffix(" (held out)")) % len(colors)]
-            hatch = "//" if lever.endswith("(held out)") else None  # the held-out seeds hatched
+            c = colors[levers.index(lever.removesuffix(HELD_OUT)) % len(colors)]
+            hatch = "//" if lever.endswith(HELD_OUT) else None  # the held-out seeds hatched
             for x, color, k, kc in ((i - 0.2, "0.55", base_done, base_clean), (i + 0.2, c, done, clean)):
                 ax.bar(x, k / n, width=0.38, color=color, alpha=0.35)
                 ax.bar(x, kc / n, width=0.38, color=color, hatch=hatch, edgecolor="white" if hatch else None)
@@ -687,19 +689,19 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             only, lost = sorted(with_lever - without), sorted(without - with_lever)
             mm = [f"{median(x[col], scale=1e3)}" for col in ("_span", "_final") for x in (h, c)]
             errors = f"{mm[0]} / {mm[1]} | {mm[2]} / {mm[3]}"
-            where = task if half == "sweep" else f"{task} (held out)"
+            where = task if half == "sweep" else task + HELD_OUT
             rows.append(
                 f"| `{lever}` | {where} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
                 f"| {of(ck, len(c))} | {of(cc, len(c))} | {Fmt.p(p)} | {seeds(only)} | {seeds(lost)} "
                 f"| {errors} | {'' if math.isnan(ratio) else f'{ratio:.2f}'} |"
             )
             if len(c) == len(h):
-                name = lever if half == "sweep" else f"{lever} (held out)"
+                name = lever if half == "sweep" else lever + HELD_OUT
                 fig_rows.append((task, name, len(h), hk, hc, ck, cc))
     best = []  # per task, the lever (of >= 5 seeds) with the largest difference in seeds finished cleanly
     whole: dict[tuple[str, str], np.ndarray] = {}  # a lever's counts over all its seeds, held out too
     for task, name, *counts in fig_rows:
-        key = (task, name.removesuffix(" (held out)"))
+        key = (task, name.removesuffix(HELD_OUT))
         whole[key] = whole.get(key, np.zeros(5, int)) + np.array(counts)
     for task in plan()[0]:
         mine = [(k[0], k[1], *v) for k, v in whole.items() if k[0] == task and v[0] >= 5]
