@@ -55,6 +55,7 @@ LABELS = (
     "place",
     "pacing",
     "carry",
+    "grip",
     "preset",
     "experiment",
     "perturbation",

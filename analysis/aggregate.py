@@ -85,6 +85,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "place": None,
     "pacing": None,
     "carry": None,
+    "grip": None,
     "hand": None,
     "cost": None,
     "sampler": None,

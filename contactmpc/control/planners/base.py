@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from contactmpc.control.cost import as_index
+from contactmpc.control.grip import Grip
 from contactmpc.control.guidance import CONTROL_SPEC, ObjectGuidance
 from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.problem import Problem
@@ -159,6 +160,9 @@ class Planner:
         carry_hold: control time (s) the object must have been carried (both above ``carry_lift``, without
             a break) before the carry shifts the wrist: the grasp has held, so the feedback does not pull
             on an object the hand is still lifting. 0: from the first plan it is carried.
+        grip: squeeze the fingers the reference expects in contact (not the paper's): their flexion
+            joints' targets pressed into the object, in the rollouts and the plant alike
+            (:class:`~contactmpc.control.grip.Grip`); ``None`` (the paper): the policy's targets as they are.
     """
 
     needs_rollouts = True
@@ -193,6 +197,7 @@ class Planner:
         carry_turn: Annotated[float, Ge(0)] = 0.0,
         carry_turn_limit: Annotated[float, Ge(0)] = 0.5,
         carry_hold: Annotated[float, Ge(0)] = 0.0,
+        grip: Grip | None = None,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -218,6 +223,8 @@ class Planner:
         self._carry = np.zeros(6)  # the wrist's shift so far (carry_gain): translation, hinge angles
         self._carry_data = None  # (carry_turn) scratch data for the wrist's Jacobian
         self._carry_at: float | None = None  # the control time of the last plan (carry_gain)
+        self.grip = grip
+        self._grip: np.ndarray | None = None  # (N, J) the grip's offsets on the track's grid (bind)
         # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
         # control time t1, then with control time
         self._clock = (0.0, 0.0, 1.0, np.inf)
@@ -282,6 +289,10 @@ class Planner:
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
         self._basis_cache: dict[int, np.ndarray] = {}
         self._actuators = as_index(problem.scene.index.actuators)
+        if self.grip is not None:
+            track = problem.track
+            carried = self.grip.carried(problem.scene.task.layout, track.object_qpos)
+            self._grip = self.grip.offsets(problem.scene.hand, track.contact_active, track.dt, carried)
         # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
@@ -326,12 +337,16 @@ class Planner:
             self.engine = None
 
     def basis(self, t: float) -> np.ndarray:
-        """(H, M) spline basis over the horizon starting at grid time ``t`` (cached per grid index)."""
+        """(H, M) spline basis over the horizon starting at grid time ``t`` (cached per grid index), at
+        :meth:`basis_times`."""
         i = self.problem.track.index(t)
         if i not in self._basis_cache:
-            times = (i + np.arange(self.steps)) * self.dt
-            self._basis_cache[i] = self.problem.spline.basis(times)
+            self._basis_cache[i] = self.problem.spline.basis(self.basis_times(t))
         return self._basis_cache[i]
+
+    def basis_times(self, t: float) -> np.ndarray:
+        """(H,) the times of the horizon starting at grid time ``t``: its grid steps."""
+        return (self.problem.track.index(t) + np.arange(self.steps)) * self.dt
 
     def targets(self, times: np.ndarray, theta: np.ndarray | None = None) -> np.ndarray:
         """The committed policy: (N, J) joint targets at control ``times`` (N,), the spline read at the
@@ -341,7 +356,21 @@ class Planner:
         :mod:`contactmpc.online`, evaluates its published copy while the planner works on its own).
         """
         theta = self.theta if theta is None else theta
-        return self.problem.space.controls(theta, self.problem.spline.basis(self.reference_time(times)))
+        s = self.reference_time(times)
+        u = self.problem.space.controls(theta, self.problem.spline.basis(s))
+        return u if self._grip is None else self.gripped(u, self.grip_at(s))
+
+    def grip_at(self, times) -> np.ndarray:
+        """(N, J) the grip's offsets at reference ``times`` (N,) (the nearest grid step, clipped to the
+        grid); needs a grip (:attr:`grip`) and :meth:`bind`."""
+        index = np.clip(np.rint(np.asarray(times, float) / self.problem.track.dt), 0, len(self._grip) - 1)
+        return self._grip[index.astype(int)]
+
+    def gripped(self, u: np.ndarray, offset: np.ndarray) -> np.ndarray:
+        """Joint targets ``u`` (..., H, J) with the grip's ``offset`` (H, J) added, clipped to the
+        actuators' ranges."""
+        ranges = self.problem.space.ranges
+        return np.clip(u + offset, ranges[:, 0], ranges[:, 1])
 
     def reference_time(self, t):
         """The reference's time at control time ``t`` (a float or an array): ``t`` itself unless the
@@ -382,9 +411,12 @@ class Planner:
         if self._clock[2:] != (1.0, np.inf):  # (running on already: the same clock, exactly)
             self._clock = (t, at, 1.0, np.inf)
 
-    def controls(self, theta: np.ndarray, basis: np.ndarray) -> np.ndarray:
-        """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M)."""
+    def controls(self, theta: np.ndarray, basis: np.ndarray, times=None) -> np.ndarray:
+        """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M) at
+        reference ``times`` (H,) (the grip's, :attr:`grip`; without a grip they are not needed)."""
         u = self.problem.space.controls(theta, basis)
+        if self._grip is not None and self.grip.planned:
+            u = self.gripped(u, self.grip_at(times))
         nu = self.problem.scene.planner_model.nu
         if self._actuators == slice(0, nu):
             return u
@@ -402,8 +434,8 @@ class Planner:
         n = int(round(duration / self.dt))
         if n < 1 or self.engine is None:
             return t, state
-        times = t + np.arange(n) * self.dt
-        ctrl = self.controls(self.theta[None], self.problem.spline.basis(self.reference_time(times)))
+        times = self.reference_time(t + np.arange(n) * self.dt)
+        ctrl = self.controls(self.theta[None], self.problem.spline.basis(times), times)
         states, _, diverged = self.engine.run(state, ctrl)
         if diverged[0]:
             return t, state
@@ -425,7 +457,7 @@ class Planner:
             total: (S,) cumulative cost (``inf`` where diverged); terms: name -> (S,) cumulative;
             diverged: (S,) bool.
         """
-        ctrl = self.controls(thetas, self.basis(t))
+        ctrl = self.controls(thetas, self.basis(t), self.basis_times(t))
         models, extra = None, None
         window = self.problem.track.window(t, self.steps)
         if self.guidance is not None:  # this iteration's weld, and the guide along the reference
