@@ -1,6 +1,6 @@
 """The method levers (issue 33): the cheap screen (a trial that starts late) and the planner's levers
 (iterations with annealed noise and early stopping, the elite-weighted update, the noise ramp along the
-horizon). Off: the plan or trial of before, bit for bit; on: a property."""
+horizon), the carry and the grip. Off: the plan or trial of before, bit for bit; on: a property."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from contactmpc.control.cost import TrackingCost
+from contactmpc.control.grip import Grip, trapezoids
 from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.planners import CEM, PredictiveSampling
 from contactmpc.control.planners.base import improvement
@@ -674,3 +675,114 @@ def test_a_paced_reference_is_refused_online(scene_for):
     with pytest.raises(ConfigError, match="pace_lag.*not in job=online"):
         OnlineLoop(trial)
     planner.close()
+
+
+def test_trapezoids_ramp_in_and_out_of_each_run_and_bridge_short_gaps():
+    active = np.array([0, 1, 1, 1, 1, 1, 1, 0, 0, 1, 1, 0, 0, 0, 1, 1, 1, 1], bool)
+    w = trapezoids(active, ramp=2, bridge=2)
+    assert not w[~active & (np.arange(18) < 1)].any() and not w[11:14].any()
+    np.testing.assert_allclose(w[1:11], [0.5, 1, 1, 1, 1, 1, 1, 1, 1, 0.5])  # the 2-step gap bridged
+    np.testing.assert_allclose(w[14:], [0.5, 1, 1, 0.5])  # (a 3-step gap is not)
+    assert trapezoids(np.zeros(5, bool), 3, 1).sum() == 0
+    np.testing.assert_allclose(trapezoids(np.ones(3, bool), 4, 0), [0.25, 0.5, 0.25])  # short: below 1
+
+
+def _bound(scene, ref, grip):
+    from contactmpc.control.problem import Problem
+
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, grip=grip)
+    planner.bind(problem)
+    return problem, planner
+
+
+def test_grip_squeezes_the_flexion_joints_of_the_fingers_in_contact_in_plant_and_rollouts(scene_for):
+    """static_reference's first 8 links expect contact (the palm, the index finger's five, the middle
+    finger's first two): the index and middle fingers' flexion joints get the squeeze, ramped in and out;
+    their abduction, the ring finger, the thumb and the wrist get nothing. The plant's targets and a
+    planned grip's rollout controls are the policy's plus the offsets, clipped; planned=False leaves the
+    rollouts alone."""
+    scene = scene_for("apple")
+    hand = scene.hand
+    ref = static_reference(scene, duration=1.0, frames=11)
+    _, plain = _bound(scene, ref, None)
+    problem, gripped = _bound(scene, ref, Grip(squeeze=0.2, ramp=0.1))
+    offsets = gripped._grip
+    columns = {name: hand.num_root + hand.finger_joints.index(name) for name in hand.finger_joints}
+    squeezed = [columns[j] for j in ("ffj1", "ffj2", "ffj3", "mfj1", "mfj2", "mfj3")]
+    middle = problem.track.index(0.5)
+    np.testing.assert_allclose(offsets[middle, squeezed], 0.2)
+    others = np.setdiff1d(np.arange(offsets.shape[1]), squeezed)
+    assert not offsets[:, others].any()
+    ramp = offsets[: problem.track.index(0.1) + 1, squeezed[0]]
+    assert ramp[0] < 0.2 and (np.diff(ramp) >= 0).all() and ramp[-1] == pytest.approx(0.2)
+    np.testing.assert_allclose(offsets[problem.track.index(1.0), squeezed], 0.2)  # (it ends held)
+
+    times = np.linspace(0.0, 1.0, 21)
+    ranges = problem.space.ranges
+    expected = np.clip(plain.targets(times) + gripped.grip_at(times), ranges[:, 0], ranges[:, 1])
+    np.testing.assert_array_equal(gripped.targets(times), expected)
+    assert (gripped.targets(times) != plain.targets(times)).any()
+
+    t = 0.5
+    rollout = gripped.controls(gripped.theta[None], gripped.basis(t), gripped.basis_times(t))
+    unplanned = Grip(squeeze=0.2, ramp=0.1, planned=False)
+    _, plant_only = _bound(scene, ref, unplanned)
+    base = plain.controls(plain.theta[None], plain.basis(t), plain.basis_times(t))
+    act = scene.index.actuators
+    offset = np.zeros_like(base)
+    offset[..., act] = gripped.grip_at(gripped.basis_times(t))
+    np.testing.assert_allclose(rollout, np.clip(base + offset, *scene.planner_model.actuator_ctrlrange.T))
+    np.testing.assert_array_equal(
+        plant_only.controls(plant_only.theta[None], plant_only.basis(t), plant_only.basis_times(t)), base
+    )
+    np.testing.assert_array_equal(plant_only.targets(times), gripped.targets(times))  # the plant: gripped
+    for p in (plain, gripped, plant_only):
+        p.close()
+
+
+def test_grip_while_carried_waits_for_the_reference_to_lift_the_object(scene_for):
+    """during=carried: no squeeze until the reference's object is more than ``lift`` above where it
+    starts; an object without a free body (the doorknob) is never squeezed."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.object_qpos[:, 2] += np.r_[np.zeros(5), np.linspace(0.02, 0.1, 6)]  # lifted from 0.5 s
+    problem, planner = _bound(scene, ref, Grip(squeeze=0.2, ramp=0.1, during="carried", lift=0.01))
+    lifted = problem.track.object_qpos[:, 2] - problem.track.object_qpos[0, 2] > 0.01
+    first = int(np.argmax(lifted))
+    assert 0 < first and not planner._grip[:first].any() and planner._grip[first:].any()
+    planner.close()
+
+    knob = scene_for("doorknob")
+    _, planner = _bound(knob, static_reference(knob, 1.0, 11), Grip(during="carried"))
+    assert not planner._grip.any()
+    planner.close()
+
+
+def test_grip_refuses_a_hand_whose_fingers_have_no_contact_links_and_contacts_over_other_links():
+    from contactmpc.hands import AllegroHand, ParallelGripper
+
+    gripper = ParallelGripper()
+    with pytest.raises(ConfigError, match="no contact link"):
+        Grip().offsets(gripper, np.ones((5, len(gripper.link_names)), bool), 0.01)
+    with pytest.raises(ConfigError, match="over 3 links"):
+        Grip().offsets(AllegroHand(), np.ones((5, 3), bool), 0.01)
+
+
+def test_a_gripped_trial_runs_and_no_squeeze_is_the_trial_of_before(tmp_path, late_contact_reference):
+    """grip=squeeze composes (its record says so); at squeeze 0 the trial is grip=none's bit for bit."""
+    overrides = [
+        "task=apple",
+        f"task.reference_path={late_contact_reference[1]}",
+        *TINY,
+        "job.progress=false",
+    ]
+    base = run_job(overrides, tmp_path / "off")
+    record = json.loads(run_job(overrides + ["grip=carried"], tmp_path / "on").read_text())
+    grip = record["config"]["planner"]["grip"]
+    assert record["status"] == "ok" and grip["squeeze"] == 0.1 and grip["during"] == "carried"
+    zero = run_job(overrides + ["grip=squeeze", "planner.grip.squeeze=0"], tmp_path / "zero")
+    a, b = np.load(base.parent / "timeseries.npz"), np.load(zero.parent / "timeseries.npz")
+    for key in a.files:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
