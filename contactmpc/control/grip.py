@@ -68,7 +68,10 @@ class Grip:
             reference's contacts flicker as a finger rolls on the object).
         during: ``contact``: wherever the reference expects the finger's contact; ``carried``: only
             where the reference also has the object's (first) free body more than ``lift`` above its
-            first position (an object without a free body, the doorknob, is never squeezed).
+            first position (an object without a free body, the doorknob, is never squeezed);
+            ``touched``: as ``contact``, but a finger squeezes only from the plan at which it is found
+            touching the object (in the measured state, while the reference expects its contact), its
+            squeeze ramped in from there: a finger that has not reached the object is not curled.
         lift: metres (``during="carried"``).
         planned: the planner's rollouts get the offset too (they plan with the grip the plant will
             have); ``False``: the plant's targets only, a grip the planner does not know of.
@@ -80,7 +83,7 @@ class Grip:
         squeeze: Annotated[float, Ge(0)] = 0.1,
         ramp: Annotated[float, Gt(0)] = 0.3,
         bridge: Annotated[float, Ge(0)] = 0.5,
-        during: Annotated[str, OneOf("contact", "carried")] = "contact",
+        during: Annotated[str, OneOf("contact", "carried", "touched")] = "contact",
         lift: Annotated[float, Ge(0)] = 0.01,
         planned: bool = True,
     ) -> None:
@@ -103,16 +106,73 @@ class Grip:
         z = layout.position(np.asarray(object_qpos, float))[:, 2]
         return z - z[0] > self.lift
 
+    def fingers(self, hand) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per finger that has flexion joints, ``(links, columns)``: the indices of its contact links
+        among ``hand.link_names`` and of its flexion joints among the hand's joints (root DOFs first,
+        then ``hand.finger_joints``). A flexion joint ``<finger>j<i>`` closes the finger whose contact
+        links are named ``<finger>_*``.
+
+        Raises:
+            ConfigError: a flexion joint whose finger has no contact link.
+        """
+        links = tuple(hand.link_names)
+        num_root = len(hand.root_joints)
+        out: dict[str, tuple[list[int], list[int]]] = {}
+        for joint in hand.flexion_joints:
+            finger = joint.rsplit("j", 1)[0]
+            if finger not in out:
+                mine = [i for i, name in enumerate(links) if name.startswith(finger + "_")]
+                if not mine:
+                    raise ConfigError(
+                        f"planner.grip: {type(hand).__name__}'s flexion joint {joint} has no contact link "
+                        f"named {finger}_*"
+                    )
+                out[finger] = (mine, [])
+            out[finger][1].append(num_root + hand.finger_joints.index(joint))
+        return [(np.array(a), np.array(b)) for a, b in out.values()]
+
+    def weights(
+        self,
+        fingers: list[tuple[np.ndarray, np.ndarray]],
+        contact_active: np.ndarray,
+        dt: float,
+        carried: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(N, F) each finger's share of the squeeze (0 to 1) at each step of a grid.
+
+        Args:
+            fingers: :meth:`fingers`.
+            contact_active: (N, L) the reference's expected contacts per grid step, over the hand's links.
+            dt: the grid's step (s).
+            carried: (N,) bool, where the reference carries the object (:meth:`carried`); needed with
+                ``during="carried"``.
+        """
+        ramp = max(1, int(round(self.ramp / dt)))
+        bridge = int(round(self.bridge / dt))
+        out = np.zeros((len(contact_active), len(fingers)))
+        for f, (links, _) in enumerate(fingers):
+            active = np.asarray(contact_active, bool)[:, links].any(axis=1)
+            if self.during == "carried":
+                active = active & np.asarray(carried, bool)
+            out[:, f] = trapezoids(active, ramp, bridge)
+        return out
+
+    def masks(self, fingers: list[tuple[np.ndarray, np.ndarray]], num_joints: int) -> np.ndarray:
+        """(F, J) what a finger at full squeeze adds to the hand's joint targets."""
+        out = np.zeros((len(fingers), num_joints))
+        for f, (_, columns) in enumerate(fingers):
+            out[f, columns] = self.squeeze
+        return out
+
     def offsets(
         self, hand, contact_active: np.ndarray, dt: float, carried: np.ndarray | None = None
     ) -> np.ndarray:
         """(N, J) what the grip adds to the hand's joint targets (root DOFs first, then
-        ``hand.finger_joints``) at each step of a grid.
+        ``hand.finger_joints``) at each step of a grid, every finger's squeeze at its :meth:`weights`
+        (with ``during="touched"``, before the touch gates it).
 
         Args:
-            hand: the hand (``root_joints``, ``finger_joints``, ``flexion_joints``, ``link_names``). A
-                flexion joint ``<finger>j<i>`` closes the finger whose contact links are named
-                ``<finger>_*``.
+            hand: the hand (``root_joints``, ``finger_joints``, ``flexion_joints``, ``link_names``).
             contact_active: (N, L) the reference's expected contacts per grid step, over
                 ``hand.link_names``.
             dt: the grid's step (s).
@@ -124,29 +184,11 @@ class Grip:
                 number of links than the hand's.
         """
         contact_active = np.asarray(contact_active, bool)
-        links = tuple(hand.link_names)
-        if contact_active.shape[1] != len(links):
+        if contact_active.shape[1] != len(hand.link_names):
             raise ConfigError(
                 f"planner.grip: the reference's contacts are over {contact_active.shape[1]} links, the hand "
-                f"{type(hand).__name__} has {len(links)}"
+                f"{type(hand).__name__} has {len(hand.link_names)}"
             )
-        num_root = len(hand.root_joints)
-        out = np.zeros((len(contact_active), num_root + len(hand.finger_joints)))
-        ramp = max(1, int(round(self.ramp / dt)))
-        bridge = int(round(self.bridge / dt))
-        weights: dict[str, np.ndarray] = {}
-        for joint in hand.flexion_joints:
-            finger = joint.rsplit("j", 1)[0]
-            if finger not in weights:
-                mine = [i for i, name in enumerate(links) if name.startswith(finger + "_")]
-                if not mine:
-                    raise ConfigError(
-                        f"planner.grip: {type(hand).__name__}'s flexion joint {joint} has no contact link "
-                        f"named {finger}_*"
-                    )
-                active = contact_active[:, mine].any(axis=1)
-                if self.during == "carried":
-                    active = active & np.asarray(carried, bool)
-                weights[finger] = trapezoids(active, ramp, bridge)
-            out[:, num_root + hand.finger_joints.index(joint)] = self.squeeze * weights[finger]
-        return out
+        fingers = self.fingers(hand)
+        masks = self.masks(fingers, len(hand.root_joints) + len(hand.finger_joints))
+        return self.weights(fingers, contact_active, dt, carried) @ masks

@@ -225,6 +225,7 @@ class Planner:
         self._carry_at: float | None = None  # the control time of the last plan (carry_gain)
         self.grip = grip
         self._grip: np.ndarray | None = None  # (N, J) the grip's offsets on the track's grid (bind)
+        self._grip_data = None  # (grip touched) scratch data for the links' contacts
         # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
         # control time t1, then with control time
         self._clock = (0.0, 0.0, 1.0, np.inf)
@@ -290,9 +291,13 @@ class Planner:
         self._basis_cache: dict[int, np.ndarray] = {}
         self._actuators = as_index(problem.scene.index.actuators)
         if self.grip is not None:
-            track = problem.track
+            track, hand = problem.track, problem.scene.hand
             carried = self.grip.carried(problem.scene.task.layout, track.object_qpos)
-            self._grip = self.grip.offsets(problem.scene.hand, track.contact_active, track.dt, carried)
+            self._grip = self.grip.offsets(hand, track.contact_active, track.dt, carried)
+            fingers = self._grip_fingers = self.grip.fingers(hand)
+            self._grip_weights = self.grip.weights(fingers, track.contact_active, track.dt, carried)
+            self._grip_masks = self.grip.masks(fingers, self._grip.shape[1])
+            self._touched = np.full(len(fingers), np.inf)  # (grip touched) when each finger touched
         # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
@@ -363,8 +368,30 @@ class Planner:
     def grip_at(self, times) -> np.ndarray:
         """(N, J) the grip's offsets at reference ``times`` (N,) (the nearest grid step, clipped to the
         grid); needs a grip (:attr:`grip`) and :meth:`bind`."""
-        index = np.clip(np.rint(np.asarray(times, float) / self.problem.track.dt), 0, len(self._grip) - 1)
-        return self._grip[index.astype(int)]
+        times = np.asarray(times, float)
+        index = np.clip(np.rint(times / self.problem.track.dt), 0, len(self._grip) - 1).astype(int)
+        if self.grip.during != "touched":
+            return self._grip[index]
+        gate = np.clip((times[..., None] - self._touched) / self.grip.ramp, 0.0, 1.0)
+        return (self._grip_weights[index] * gate) @ self._grip_masks
+
+    def touch(self, s: float, state: np.ndarray) -> np.ndarray:
+        """(grip touched) Mark the fingers found touching the object in ``state`` (the links' contacts
+        in the planning model) at reference time ``s``, while the reference expects their contact; a
+        finger stays marked. Returns (F,) bool: the fingers marked now."""
+        scene = self.problem.scene
+        m = scene.planner_model
+        if self._grip_data is None:
+            self._grip_data = mujoco.MjData(m)
+        d = self._grip_data
+        mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(m, d)
+        touching = scene.link_contacts(d)
+        expected = self._grip_weights[self.problem.track.index(s)] > 0.0
+        new = np.array([touching[links].any() for links, _ in self._grip_fingers]) & expected
+        new &= ~np.isfinite(self._touched)
+        self._touched[new] = s
+        return new
 
     def gripped(self, u: np.ndarray, offset: np.ndarray) -> np.ndarray:
         """Joint targets ``u`` (..., H, J) with the grip's ``offset`` (H, J) added, clipped to the
@@ -521,6 +548,8 @@ class Planner:
             self.release()
         if self.carry_gain:
             self.carry(t, s, state)
+        if self.grip is not None and self.grip.during == "touched":
+            self.touch(s, state)
         self._plan_samples = self.samples_at(s)
         try:
             info = self._plan(s, state, rng, start)
