@@ -786,3 +786,40 @@ def test_a_gripped_trial_runs_and_no_squeeze_is_the_trial_of_before(tmp_path, la
     for key in a.files:
         if key != "plan_seconds":
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_grip_touched_squeezes_a_finger_only_from_the_plan_that_finds_it_touching(scene_for):
+    """during=touched: no squeeze until a plan's state has the finger on the object; from that plan's
+    time the finger's squeeze ramps in; fingers the reference does not expect in contact are never
+    marked, and a finger stays marked from its first touch."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)  # expected: palm, index, middle (2 links)
+    problem, planner = _bound(scene, ref, Grip(squeeze=0.2, ramp=0.1, during="touched"))
+    times = np.linspace(0.0, 1.0, 101)
+    assert not planner.grip_at(times).any()  # nothing touched yet
+
+    m, index = scene.planner_model, scene.index
+    d = mujoco.MjData(m)
+    d.qpos[index.hand_qpos] = scene.task.hand_home
+    d.qpos[index.object_qpos] = scene.task.initial_object_qpos(scene.plant_model)
+    mujoco.mj_kinematics(m, d)
+    tip = m.body("ff_tip").id
+    d.qpos[index.object_qpos[:3]] = d.xpos[tip]  # the object on the index fingertip
+    mujoco.mj_forward(m, d)
+    assert scene.link_contacts(d)[list(scene.hand.link_names).index("ff_tip")]
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+
+    marked = planner.touch(0.5, state)
+    fingers = [scene.hand.link_names[links[0]].split("_")[0] for links, _ in planner._grip_fingers]
+    assert marked[fingers.index("ff")] and not marked[fingers.index("rf")] and not marked[fingers.index("th")]
+    offsets = planner.grip_at(times)
+    for f, (_, columns) in enumerate(planner._grip_fingers):
+        if not marked[f]:
+            assert not offsets[:, columns].any()
+            continue
+        assert not offsets[times <= 0.5][:, columns].any()
+        np.testing.assert_allclose(offsets[(times >= 0.6) & (times <= 1.0)][:, columns], 0.2)
+    assert not planner.touch(0.8, state).any()  # already marked: the time stays 0.5
+    np.testing.assert_array_equal(planner.grip_at(times), offsets)
+    planner.close()
