@@ -473,6 +473,33 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
     assert "`pacing=release place=wrist` 3 of 10 (stapler 0-2)" in text
 
 
+def test_the_method_study_sets_a_lever_against_the_lever_it_builds_on() -> None:
+    """stacked: a lever whose overrides contain another's stands against it on the seeds both ran, per
+    task and in all; levers that do not build on one another, none."""
+    import pandas as pd
+
+    spec = Study("method").spec
+
+    def trials(lever, task, seeds, clean):
+        return pd.DataFrame({"lever": lever, "task": task, "seed": list(seeds), "completed": True,
+                             "finished_cleanly": clean})  # fmt: skip
+
+    ok = pd.concat([
+        trials("carry=held", "apple", range(4), [True, False, False, True]),
+        trials("carry=held grip=squeeze", "apple", range(1, 5), [True, True, True, False]),
+        trials("carry=held grip=squeeze", "stapler", [0], [True]),  # no carry=held stapler: left out
+        trials("cost.lambda_c=3.0", "apple", range(4), [False] * 4),
+    ])  # fmt: skip
+    text = spec.stacked(ok)
+    assert text.count(" against `") == 1  # (cost.lambda_c does not build on carry=held)
+    assert (
+        "`carry=held grip=squeeze` against `carry=held`: apple (seeds 1-3) 3 of 3 finished cleanly "
+        "against 1, completed 3 against 3; in all 3 of 3 against 1 (+2)" in text
+    )
+    assert "stapler" not in text
+    assert spec.stacked(ok[ok["lever"] != "carry=held"]) == ""
+
+
 def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_slide(monkeypatch) -> None:
     """rough_slide: per seed, how the trial on the slide with friction ended beside the trial of the same
     seed on the authors' slide, and the counts with Barnard's test; without such a trial, a line that says

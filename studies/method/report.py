@@ -657,6 +657,47 @@ def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int
     plt.close(fig)
 
 
+def stacked(ok: pd.DataFrame) -> str:
+    """Each lever against a lever it builds on (whose overrides are a part of its own: ``carry=held``
+    under ``carry=held grip=squeeze``) on the seeds both ran, per task and pooled; "" where none does."""
+    levers = sorted(set(ok["lever"]))
+    out = []
+    for lever in levers:
+        for under in (b for b in levers if set(b.split()) < set(lever.split())):
+            parts, totals = [], np.zeros(5, int)
+            for task in plan()[0]:
+                a = ok[(ok["lever"] == lever) & (ok["task"] == task)]
+                b = ok[(ok["lever"] == under) & (ok["task"] == task)]
+                both = sorted(set(a["seed"]) & set(b["seed"]))
+                if not both:
+                    continue
+                a, b = a[a["seed"].isin(both)], b[b["seed"].isin(both)]
+                counts = np.array([len(both), a["completed"].sum(), a["finished_cleanly"].sum(),
+                                   b["completed"].sum(), b["finished_cleanly"].sum()], int)  # fmt: skip
+                totals += counts
+                n, done, clean, base_done, base_clean = counts
+                parts.append(
+                    f"{task} (seeds {seeds(both)}) {clean} of {n} finished cleanly against {base_clean}, "
+                    f"completed {done} against {base_done}"
+                )
+            if not parts:
+                continue
+            n, done, clean, base_done, base_clean = totals
+            p, _ = completion_test(clean, n, base_clean, n)
+            out.append(
+                f"`{lever}` against `{under}`: " + "; ".join(parts) + f"; in all {clean} of {n} against "
+                f"{base_clean} ({clean - base_clean:+d}), completed {done} against {base_done}, Barnard p = "
+                f"{Fmt.p(p)}"
+            )
+    if not out:
+        return ""
+    return (
+        "Levers on top of another lever, against it on the seeds both ran (held-out seeds counted in): "
+        + "; ".join(out)
+        + ".\n\n"
+    )
+
+
 def levers_section(study, chosen: pd.DataFrame) -> str:
     """Each lever on top of the method (:data:`LEVERS`) against the method's own trials on the same seeds,
     per task: the counts, Barnard's test on finishing cleanly, the CPU-s ratio; a figure of the counts."""
@@ -735,6 +776,7 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             "Pooled over the tasks each lever ran on (levers with at least 10 trials; its seeds and the "
             "method's on the same seeds): " + "; ".join(text for _, text in pooled) + ".\n\n"
         )
+    summary += stacked(ok)
     apart = []  # per lever, its trials whose seed the method ran on another processor
     where = base.set_index(["task", "seed"])["cpu"] if "cpu" in base else pd.Series(dtype=object)
     where = where[~where.index.duplicated()]
