@@ -500,6 +500,37 @@ def test_the_method_study_sets_a_lever_against_the_lever_it_builds_on() -> None:
     assert spec.stacked(ok[ok["lever"] != "carry=held"]) == ""
 
 
+def test_the_method_study_says_which_links_hold_the_carried_object(monkeypatch, tmp_path) -> None:
+    """grasp_section: over the samples where the object and the reference's are both lifted, each link
+    group's share of samples in contact (plant) against expected (reference); an object without a free
+    body (the doorknob's articulation) or never carried is left out; no such trial, a line that says so."""
+    import numpy as np
+    import pandas as pd
+
+    spec = Study("method").spec
+    n = 10
+    qo = np.zeros((n, 7))
+    qo[5:, 2] = 0.1  # lifted from the sixth sample on
+    contacts, expected = np.zeros((n, 21), bool), np.zeros((n, 21), bool)
+    contacts[:, 5] = True  # ff_tip touches throughout
+    expected[:, [0, 5, 20]] = True  # the reference: palm, ff_tip, th_tip
+    contacts[7:, 0] = True  # the palm touches on 3 of the 5 carried samples
+    (tmp_path / "a").mkdir()
+    np.savez(tmp_path / "a" / "timeseries.npz", object_qpos=qo, expected_object_qpos=qo, contacts=contacts,
+             expected_contacts=expected)  # fmt: skip
+    assert spec.carried({"object_qpos": qo[:, :1], "expected_object_qpos": qo[:, :1]}) is None
+    assert spec.carried({"object_qpos": qo[:, :] * 0, "expected_object_qpos": qo * 0}) is None
+    frame = pd.DataFrame({"lever": [spec.GRASP_LEVER], "task": ["apple"],
+                          "record_path": [str(tmp_path / "a" / "trial.json")]})  # fmt: skip
+    monkeypatch.setattr(spec, "lever_frame", lambda study: frame)
+    text = spec.grasp_section(None)
+    assert "apple (1 trial): 1.6 links in contact on average against the reference's 3.0" in text
+    assert "| palm | 0.60 / 1.00 |" in text and "| index, distal and tip | 1.00 / 1.00 |" in text
+    assert "| thumb, distal and tip | 0.00 / 1.00 |" in text
+    monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
+    assert spec.grasp_section(None).startswith("No `carry=held` trial")
+
+
 def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_slide(monkeypatch) -> None:
     """rough_slide: per seed, how the trial on the slide with friction ended beside the trial of the same
     seed on the authors' slide, and the counts with Barnard's test; without such a trial, a line that says

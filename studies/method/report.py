@@ -825,6 +825,82 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     )
 
 
+GRASP_LEVER = "carry=held"
+GRASP_LIFT = 0.05  # m: a sample counts as carried where the object and the reference's are this far up
+
+
+def carried(series) -> np.ndarray | None:
+    """(N,) a trial's carried samples: its free object and the reference's both more than
+    :data:`GRASP_LIFT` above where the object starts; ``None`` for an object without a free body (the
+    doorknob's articulations) or where nothing is carried."""
+    qo, expected = series["object_qpos"], series["expected_object_qpos"]
+    if qo.shape[1] < 7:
+        return None
+    up = (qo[:, 2] - qo[0, 2] > GRASP_LIFT) & (expected[:, 2] - qo[0, 2] > GRASP_LIFT)
+    return up if up.any() else None
+
+
+def grasp_section(study) -> str:
+    """What holds the carried object: per link group, the share of the carried samples on which a link of
+    the group touches it in :data:`GRASP_LEVER`'s trials, against the share on which the reference expects
+    it (the trials' own time series, kept in ``levers/``); the mean number of links in contact."""
+    from contactmpc.hands import AllegroPaperHand
+
+    ok = lever_frame(study)
+    ok = ok[ok["lever"] == GRASP_LEVER] if len(ok) else ok
+    links = AllegroPaperHand.LINKS
+    groups = {"palm": ["palm"]}
+    for finger, name in (("ff", "index"), ("mf", "middle"), ("rf", "ring"), ("th", "thumb")):
+        groups[f"{name}, base and proximal"] = [f"{finger}_base", f"{finger}_proximal"]
+        groups[f"{name}, medial"] = [f"{finger}_medial"]
+        groups[f"{name}, distal and tip"] = [f"{finger}_distal", f"{finger}_tip"]
+    columns = {g: [links.index(n) for n in names] for g, names in groups.items()}
+    per_task, counts = {}, []
+    for task in plan()[0]:
+        shares = []
+        for r in ok[ok["task"] == task].itertuples():
+            path = Path(r.record_path).parent / "timeseries.npz"
+            up = carried(np.load(path)) if path.is_file() else None
+            if up is None:
+                continue
+            series = np.load(path)
+            touch, expect = series["contacts"][up], series["expected_contacts"][up]
+            group = {
+                g: (touch[:, c].any(axis=1).mean(), expect[:, c].any(axis=1).mean())
+                for g, c in columns.items()
+            }
+            shares.append((group, touch.sum(axis=1).mean(), expect.sum(axis=1).mean()))
+        if shares:
+            per_task[task] = shares
+            plant, reference = (np.mean([x[i] for x in shares]) for i in (1, 2))
+            counts.append(
+                f"{task} ({len(shares)} trial{'s' * (len(shares) != 1)}): {plant:.1f} links in contact on "
+                f"average against the reference's {reference:.1f}"
+            )
+    if not per_task:
+        return f"No `{GRASP_LEVER}` trial with a time series and a carry is kept yet.\n"
+    rows = []
+    for g in groups:
+        cells = []
+        for task in per_task:
+            plant = np.mean([x[0][g][0] for x in per_task[task]])
+            reference = np.mean([x[0][g][1] for x in per_task[task]])
+            cells.append(f"{plant:.2f} / {reference:.2f}")
+        rows.append(f"| {g} | " + " | ".join(cells) + " |")
+    cols = ("links", *(f"{t}: plant / reference" for t in per_task))
+    return (
+        "While the object is carried (it and the reference's object both more than "
+        f"{GRASP_LIFT * 100:.0f} cm above where it starts), which of the hand's links touch it in "
+        f"`{GRASP_LEVER}`'s trials (the lever's time series are kept in `{LEVERS}/`), against where the "
+        "reference expects contact: per group of links, the share of the carried samples on which a link of "
+        "the group touches the object (plant) or is expected to (reference), the mean over the trials. Links "
+        "in contact per carried sample: "
+        + "; ".join(counts)
+        + ".\n\n"
+        + pipe_table(cols, "l" + "r" * len(per_task), rows)
+    )
+
+
 ROUGH = "slide_friction"
 ROUGH_RUN = (
     "for s in $(seq 0 9); do python launch.py experiment=method task=paper_doorknob task.slide_friction=0.5 "
@@ -1522,6 +1598,8 @@ def report(study) -> str:
         + heldout(study, df)
         + "\n## Levers on the method, full trials\n\n"
         + levers_section(study, df)
+        + "\n## What holds the carried object\n\n"
+        + grasp_section(study)
         + "\n## The doorknob on a slide with friction\n\n"
         + rough_slide(rough, df, study)
         + "\n## Online, in wall-clock time\n\n"
