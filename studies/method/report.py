@@ -590,6 +590,10 @@ LEVER_TEXT = {
     "lifted it on 16 of 20 seeds against the method's 12 (the method_screen study)",
     "planner.carry_hold=1.0": "the carry's wait until the grasp has held (`carry=held`'s 1 s), here on top "
     "of `carry=pose`",
+    "cost.surface_weight=1.0": "the surface term on top of the clearance term (`cost.surface_weight`; the "
+    "method's 0): each link whose contact the reference expects is pulled onto the object wherever it "
+    "touches it, read from the clearance term's distance sensors, so the palm and the proximal links close "
+    "on the object as the reference's do (the method_screen study screened it on the stapler only)",
 }
 
 
