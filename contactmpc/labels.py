@@ -5,7 +5,7 @@ A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``
 ``wrist`` (``fixed | sampled | acquire``), ``shaping`` (``none | surface | clearance``), ``release``
 (``none | reset | open | scheduled | flat | backoff``), ``compensation`` (``none | predict``),
 ``effort`` (``uniform | acquire``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``),
-``carry`` (``none | wrist | pose | held``) and ``grip`` (``none | squeeze``).
+``carry`` (``none | wrist | pose | held``) and ``grip`` (``none | squeeze | carried | touched``).
 Records made before the groups existed name the combination by one variant label (``variant:
 release_flat``); records made before the release schedule was one object store its options as flat sampler
 keys (``sampler.release_pause``); records made before a group existed read as its default.

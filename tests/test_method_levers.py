@@ -764,9 +764,9 @@ def test_grip_refuses_a_hand_whose_fingers_have_no_contact_links_and_contacts_ov
 
     gripper = ParallelGripper()
     with pytest.raises(ConfigError, match="no contact link"):
-        Grip().offsets(gripper, np.ones((5, len(gripper.link_names)), bool), 0.01)
+        Grip().tables(gripper, np.ones((5, len(gripper.link_names)), bool), 0.01)
     with pytest.raises(ConfigError, match="over 3 links"):
-        Grip().offsets(AllegroHand(), np.ones((5, 3), bool), 0.01)
+        Grip().tables(AllegroHand(), np.ones((5, 3), bool), 0.01)
 
 
 def test_a_gripped_trial_runs_and_no_squeeze_is_the_trial_of_before(tmp_path, late_contact_reference):

@@ -10,10 +10,11 @@ joints that close it) while the reference expects that finger in contact, ramped
 seconds from the finger's first expected contact and out over ``ramp`` seconds before its last, so
 the finger is relaxed again where the reference lets go. With ``during="carried"`` a finger squeezes only
 while the reference also has the object lifted (``lift`` above where it starts), so the fingers close
-on the object as the reference approaches it unchanged, and press only once the grasp is to carry it.
-The offset is part of the policy: the
-planner's rollouts and the plant both get it (:meth:`~contactmpc.control.planners.base.Planner.targets`),
-so the planner plans with the grip the plant will have.
+on the object as the reference approaches it unchanged, and press only once the grasp is to carry it;
+with ``during="touched"`` only from the plan that finds the finger on the object. The offset is part of
+the policy: the planner's rollouts and the plant both get it
+(:meth:`~contactmpc.control.planners.base.Planner.targets`), so the planner plans with the grip the plant
+will have (``planned=False``: the plant alone).
 """
 
 from __future__ import annotations
@@ -147,11 +148,12 @@ class Grip:
             carried: (N,) bool, where the reference carries the object (:meth:`carried`); needed with
                 ``during="carried"``.
         """
+        contact_active = np.asarray(contact_active, bool)
         ramp = max(1, int(round(self.ramp / dt)))
         bridge = int(round(self.bridge / dt))
         out = np.zeros((len(contact_active), len(fingers)))
         for f, (links, _) in enumerate(fingers):
-            active = np.asarray(contact_active, bool)[:, links].any(axis=1)
+            active = contact_active[:, links].any(axis=1)
             if self.during == "carried":
                 active = active & np.asarray(carried, bool)
             out[:, f] = trapezoids(active, ramp, bridge)
@@ -164,12 +166,13 @@ class Grip:
             out[f, columns] = self.squeeze
         return out
 
-    def offsets(
+    def tables(
         self, hand, contact_active: np.ndarray, dt: float, carried: np.ndarray | None = None
-    ) -> np.ndarray:
-        """(N, J) what the grip adds to the hand's joint targets (root DOFs first, then
-        ``hand.finger_joints``) at each step of a grid, every finger's squeeze at its :meth:`weights`
-        (with ``during="touched"``, before the touch gates it).
+    ) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray, np.ndarray]:
+        """The grip on a grid: ``(fingers, weights, masks)``, its :meth:`fingers`, their (N, F)
+        :meth:`weights` and their (F, J) :meth:`masks` over the hand's joints (root DOFs first, then
+        ``hand.finger_joints``); ``weights @ masks`` is what it adds to the joint targets (with
+        ``during="touched"``, before the touch gates it).
 
         Args:
             hand: the hand (``root_joints``, ``finger_joints``, ``flexion_joints``, ``link_names``).
@@ -191,4 +194,4 @@ class Grip:
             )
         fingers = self.fingers(hand)
         masks = self.masks(fingers, len(hand.root_joints) + len(hand.finger_joints))
-        return self.weights(fingers, contact_active, dt, carried) @ masks
+        return fingers, self.weights(fingers, contact_active, dt, carried), masks

@@ -864,10 +864,10 @@ def grasp_section(study) -> str:
         shares = []
         for r in ok[ok["task"] == task].itertuples():
             path = Path(r.record_path).parent / "timeseries.npz"
-            up = carried(np.load(path)) if path.is_file() else None
+            series = np.load(path) if path.is_file() else None
+            up = None if series is None else carried(series)
             if up is None:
                 continue
-            series = np.load(path)
             touch, expect = series["contacts"][up], series["expected_contacts"][up]
             group = {
                 g: (touch[:, c].any(axis=1).mean(), expect[:, c].any(axis=1).mean())

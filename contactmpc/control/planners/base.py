@@ -293,10 +293,9 @@ class Planner:
         if self.grip is not None:
             track, hand = problem.track, problem.scene.hand
             carried = self.grip.carried(problem.scene.task.layout, track.object_qpos)
-            self._grip = self.grip.offsets(hand, track.contact_active, track.dt, carried)
-            fingers = self._grip_fingers = self.grip.fingers(hand)
-            self._grip_weights = self.grip.weights(fingers, track.contact_active, track.dt, carried)
-            self._grip_masks = self.grip.masks(fingers, self._grip.shape[1])
+            fingers, weights, masks = self.grip.tables(hand, track.contact_active, track.dt, carried)
+            self._grip_fingers, self._grip_weights, self._grip_masks = fingers, weights, masks
+            self._grip = weights @ masks
             self._touched = np.full(len(fingers), np.inf)  # (grip touched) when each finger touched
         # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
