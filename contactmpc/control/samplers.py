@@ -42,6 +42,12 @@ class SplineSpace:
             only on the control points whose support meets that interval (the paper's future work:
             the wrist free while contact is being acquired, the reference's afterwards); ``None``: on
             every control point.
+        root_span: ``(start, end)`` seconds: sample the wrist also on the control points whose support
+            meets the span from ``start`` after the first expected contact to ``end`` after the last (where
+            the reference lets go; the end of the spline's domain where it ends held): the wrist free all
+            the while the object is held, so the planner can move the palm onto it while it is carried
+            (not the paper's). With it and no ``root_window`` the wrist is sampled only there; ``None``:
+            no span.
         release: what the nominal and the noise do after the reference's last expected contact,
             where it lets go (:class:`~contactmpc.control.release.ReleaseSchedule`); ``None`` (the
             paper): the same as before it.
@@ -61,8 +67,12 @@ class SplineSpace:
         root_window: tuple[float, float] | None = None,
         release: ReleaseSchedule | None = None,
         noise_ramp: Annotated[float, Gt(0)] = 1.0,
+        root_span: tuple[float, float] | None = None,
     ) -> None:
         self.noise_ramp = float(noise_ramp)
+        self.root_span = None if root_span is None else tuple(float(v) for v in root_span)
+        if self.root_span is not None and len(self.root_span) != 2:
+            raise ConfigError(f"sampler.root_span must be (start, end), got {root_span}")
         if release is not None and not isinstance(release, ReleaseSchedule):  # a node with no _target_
             raise ConfigError(
                 f"sampler.release sets {', '.join(sorted(release)) or 'nothing'} but no release schedule is "
@@ -156,20 +166,27 @@ class SplineSpace:
         """The noise per control point: :attr:`noise_std` (d,), or with ``root_window`` or the release
         schedule's ``window`` an (M, d) array whose root columns are 0 on the control points that touch
         neither the root window around ``first_contact`` nor the release window around
-        ``last_contact`` (s, control time; ``None``: no contact expected, the wrist is never sampled);
+        ``last_contact`` nor the ``root_span`` between them (s, control time; ``first_contact`` ``None``: no
+        contact expected, the wrist is never sampled);
         with the schedule's ``noise`` the rows of the control points whose support lies after
         ``last_contact`` scaled by it (``last_contact`` ``None``: the reference ends held, no change)."""
         std = self.noise_std
         release_window, release_noise = self.release.window, self.release.noise
         quieter = release_noise != 1.0 and last_contact is not None
-        if self.root_window is None and release_window is None and not quieter:
+        windowed = self.root_window is not None or release_window is not None or self.root_span is not None
+        if not windowed and not quieter:
             return std
         out = np.tile(std, (spline.num_control_points, 1))
-        if self.root_window is not None or release_window is not None:
+        if windowed:
             keep = np.zeros(spline.num_control_points, bool)
             for window, at in ((self.root_window, first_contact), (release_window, last_contact)):
                 if window is not None and at is not None:
                     start, end = (at + w for w in window)
+                    keep[spline.window_indices(start, end - start)] = True
+            if self.root_span is not None and first_contact is not None:
+                start = first_contact + self.root_span[0]
+                end = (spline.domain[1] if last_contact is None else last_contact) + self.root_span[1]
+                if end > start:
                     keep[spline.window_indices(start, end - start)] = True
             out[~keep, : self.num_root] = 0.0
         if quieter:  # the control points whose support lies after the last contact
@@ -249,7 +266,7 @@ class PCASplineSpace(SplineSpace):
             over all 22 DOFs and adds block ``k`` to PC ``k``, so the six root blocks (zero noise) land on
             PCs 0-5: ``frozen_components=6`` reproduces it; 0 (the paper) perturbs every PC.
         sigma2, root_sigma2, whiten, num_components, root_rotation_sigma2, root_window, release,
-            noise_ramp: see
+            noise_ramp, root_span: see
             :class:`SplineSpace`.
     """
 
@@ -268,6 +285,7 @@ class PCASplineSpace(SplineSpace):
         root_window: tuple[float, float] | None = None,
         release: ReleaseSchedule | None = None,
         noise_ramp: Annotated[float, Gt(0)] = 1.0,
+        root_span: tuple[float, float] | None = None,
     ) -> None:
         super().__init__(
             sigma2,
@@ -277,8 +295,9 @@ class PCASplineSpace(SplineSpace):
             root_rotation_sigma2,
             root_window,
             release,
+            noise_ramp,
+            root_span,
         )
-        self.noise_ramp = float(noise_ramp)
         self.basis = basis
         self.frozen_components = int(frozen_components)
 
