@@ -2,7 +2,7 @@
 
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
 ``robust``; or a named combination such as ``wrist_clearance``) with nine independent groups on top:
-``wrist`` (``fixed | sampled | acquire``), ``shaping`` (``none | surface | clearance``), ``release``
+``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance``), ``release``
 (``none | reset | open | scheduled | flat | backoff``), ``compensation`` (``none | predict``),
 ``effort`` (``uniform | acquire``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``),
 ``carry`` (``none | wrist | pose | held``) and ``grip`` (``none | squeeze | carried | touched``).

@@ -823,3 +823,44 @@ def test_grip_touched_squeezes_a_finger_only_from_the_plan_that_finds_it_touchin
     assert not planner.touch(0.8, state).any()  # already marked: the time stays 0.5
     np.testing.assert_array_equal(planner.grip_at(times), offsets)
     planner.close()
+
+
+def test_root_span_samples_the_wrist_from_before_the_first_contact_to_the_last():
+    """sampler.root_span: wrist noise on the control points whose support meets [first + start, last + end]
+    (to the domain's end where the reference ends held), a union with root_window; none without contact."""
+    from contactmpc.control.samplers import JointSplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    times = np.linspace(0, 10, 50)
+    qpos = np.random.default_rng(0).normal(size=(50, 8))
+    spline = UniformBSpline(20, (0.0, 10.0))
+    ranges = np.tile([-10.0, 10.0], (8, 1))
+
+    def sampled(first, last, **kwargs):
+        space = JointSplineSpace(0.2, root_sigma2=1e-4, **kwargs)
+        space.fit(spline, times, qpos, ranges, 6)
+        std = space.point_noise_std(spline, first, last)
+        np.testing.assert_allclose(std[:, 6:], np.sqrt(0.2))  # the fingers everywhere
+        return np.flatnonzero(std[:, :6].any(axis=1))
+
+    span = sampled(3.0, 7.0, root_span=(-1.0, 0.0))
+    np.testing.assert_array_equal(span, spline.window_indices(2.0, 5.0))
+    held = sampled(3.0, None, root_span=(-1.0, 0.0))
+    np.testing.assert_array_equal(held, spline.window_indices(2.0, 8.0))
+    assert held[-1] == 19 and span[-1] < 19
+    union = sampled(3.0, 7.0, root_span=(1.0, -2.0), root_window=(-1.0, 0.5))
+    np.testing.assert_array_equal(
+        union, np.union1d(spline.window_indices(2.0, 1.5), spline.window_indices(4.0, 1.0))
+    )
+    assert sampled(None, None, root_span=(-1.0, 0.0)).size == 0
+    assert sampled(3.0, 3.5, root_span=(1.0, 0.0)).size == 0  # an empty span samples nothing
+    with pytest.raises(ConfigError, match="root_span"):
+        JointSplineSpace(0.2, root_span=(1.0, 2.0, 3.0))
+
+
+def test_wrist_carry_composes_a_span_and_no_window(tmp_path, late_contact_reference):
+    overrides = ["task=apple", f"task.reference_path={late_contact_reference[1]}", *TINY]
+    record = json.loads(run_job(overrides + ["job.progress=false", "wrist=carry"], tmp_path).read_text())
+    sampler = record["config"]["sampler"]
+    assert record["status"] == "ok" and sampler["root_span"] == [-1.0, 0.0] and sampler["root_window"] is None
+    assert sampler["root_sigma2"] == 1.0e-4
