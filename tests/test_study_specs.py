@@ -527,6 +527,23 @@ def test_the_method_study_says_which_links_hold_the_carried_object(monkeypatch, 
     assert "apple (1 trial): 1.6 links in contact on average against the reference's 3.0" in text
     assert "| palm | 0.60 / 1.00 |" in text and "| index, distal and tip | 1.00 / 1.00 |" in text
     assert "| thumb, distal and tip | 0.00 / 1.00 |" in text
+    assert "to close the grasp" not in text  # no lever built on it
+    # a lever on top of it, on the same seed: its contacts against the base's; another task's trial and a
+    # lever not built on it are left out
+    more = contacts.copy()
+    more[:, 20] = True  # th_tip too, and the palm throughout: 3 links on every carried sample
+    more[:, 0] = True
+    (tmp_path / "b").mkdir()
+    np.savez(tmp_path / "b" / "timeseries.npz", object_qpos=qo, expected_object_qpos=qo, contacts=more,
+             expected_contacts=expected)  # fmt: skip
+    b = str(tmp_path / "b" / "trial.json")
+    frame = pd.DataFrame({"lever": [spec.GRASP_LEVER, f"{spec.GRASP_LEVER} grip=squeeze", "grip=squeeze",
+                                    f"{spec.GRASP_LEVER} grip=squeeze"],
+                          "task": ["apple", "apple", "apple", "bottle"], "seed": [3, 3, 3, 3],
+                          "record_path": [str(tmp_path / "a" / "trial.json"), b, b, b]})  # fmt: skip
+    text = spec.grasp_section(None)
+    assert "| `carry=held grip=squeeze` | apple | seed 3 | 3.0 / 1.6 | 1.00 / 0.60 |" in text
+    assert "| `grip=squeeze` |" not in text and "| bottle |" not in text
     monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
     assert spec.grasp_section(None).startswith("No `carry=held` trial")
 

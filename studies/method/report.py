@@ -844,36 +844,48 @@ def carried(series) -> np.ndarray | None:
     return up if up.any() else None
 
 
-def grasp_section(study) -> str:
-    """What holds the carried object: per link group, the share of the carried samples on which a link of
-    the group touches it in :data:`GRASP_LEVER`'s trials, against the share on which the reference expects
-    it (the trials' own time series, kept in ``levers/``); the mean number of links in contact."""
+def _grasp_groups() -> tuple[dict[str, list[int]], int]:
+    """The link groups of :func:`grasp_section` as columns of a trial's ``contacts`` (the Allegro's links),
+    and the palm's column."""
     from contactmpc.hands import AllegroPaperHand
 
-    ok = lever_frame(study)
-    ok = ok[ok["lever"] == GRASP_LEVER] if len(ok) else ok
     links = AllegroPaperHand.LINKS
     groups = {"palm": ["palm"]}
     for finger, name in (("ff", "index"), ("mf", "middle"), ("rf", "ring"), ("th", "thumb")):
         groups[f"{name}, base and proximal"] = [f"{finger}_base", f"{finger}_proximal"]
         groups[f"{name}, medial"] = [f"{finger}_medial"]
         groups[f"{name}, distal and tip"] = [f"{finger}_distal", f"{finger}_tip"]
-    columns = {g: [links.index(n) for n in names] for g, names in groups.items()}
+    return {g: [links.index(n) for n in names] for g, names in groups.items()}, links.index("palm")
+
+
+def carried_contacts(record_path: str, columns: dict[str, list[int]]) -> tuple[dict, float, float] | None:
+    """A trial's contacts while its object is carried (:func:`carried`, from its kept time series): per
+    group of ``columns``, the shares of the carried samples on which a link of the group touches the object
+    and on which the reference expects it to; the mean number of links in contact, and expected. ``None``
+    without a time series or a carry."""
+    path = Path(record_path).parent / "timeseries.npz"
+    series = np.load(path) if path.is_file() else None
+    up = None if series is None else carried(series)
+    if up is None:
+        return None
+    touch, expect = series["contacts"][up], series["expected_contacts"][up]
+    group = {g: (touch[:, c].any(axis=1).mean(), expect[:, c].any(axis=1).mean()) for g, c in columns.items()}
+    return group, touch.sum(axis=1).mean(), expect.sum(axis=1).mean()
+
+
+def grasp_section(study) -> str:
+    """What holds the carried object: per link group, the share of the carried samples on which a link of
+    the group touches it in :data:`GRASP_LEVER`'s trials, against the share on which the reference expects
+    it (the trials' own time series, kept in ``levers/``); the mean number of links in contact; and
+    :func:`grasp_levers`, the other levers' contacts against it."""
+    everything = lever_frame(study)
+    ok = everything[everything["lever"] == GRASP_LEVER] if len(everything) else everything
+    columns, _ = _grasp_groups()
     per_task, counts = {}, []
     for task in plan()[0]:
-        shares = []
-        for r in ok[ok["task"] == task].itertuples():
-            path = Path(r.record_path).parent / "timeseries.npz"
-            series = np.load(path) if path.is_file() else None
-            up = None if series is None else carried(series)
-            if up is None:
-                continue
-            touch, expect = series["contacts"][up], series["expected_contacts"][up]
-            group = {
-                g: (touch[:, c].any(axis=1).mean(), expect[:, c].any(axis=1).mean())
-                for g, c in columns.items()
-            }
-            shares.append((group, touch.sum(axis=1).mean(), expect.sum(axis=1).mean()))
+        shares = [
+            x for r in ok[ok["task"] == task].itertuples() if (x := carried_contacts(r.record_path, columns))
+        ]
         if shares:
             per_task[task] = shares
             plant, reference = (np.mean([x[i] for x in shares]) for i in (1, 2))
@@ -884,7 +896,7 @@ def grasp_section(study) -> str:
     if not per_task:
         return f"No `{GRASP_LEVER}` trial with a time series and a carry is kept yet.\n"
     rows = []
-    for g in groups:
+    for g in columns:
         cells = []
         for task in per_task:
             plant = np.mean([x[0][g][0] for x in per_task[task]])
@@ -902,6 +914,54 @@ def grasp_section(study) -> str:
         + "; ".join(counts)
         + ".\n\n"
         + pipe_table(cols, "l" + "r" * len(per_task), rows)
+        + grasp_levers(everything)
+    )
+
+
+def grasp_levers(ok: pd.DataFrame) -> str:
+    """The levers built to close the grasp, against :data:`GRASP_LEVER` on the seeds both carried the object:
+    per lever that builds on it and task, the mean links in contact while carried and the palm's share of
+    the carried samples (:func:`carried_contacts`); empty where no such lever has a time series kept."""
+    columns, _ = _grasp_groups()
+    base = ok[ok["lever"] == GRASP_LEVER] if len(ok) else ok
+    rows = []
+    for lever in sorted(set(ok["lever"]) - {GRASP_LEVER}) if len(ok) else []:
+        if not lever.startswith(GRASP_LEVER + " "):
+            continue
+        for task in plan()[0]:
+            pairs = {}
+            for side, frame_ in (("lever", ok[ok["lever"] == lever]), ("base", base)):
+                for r in frame_[frame_["task"] == task].itertuples():
+                    if (x := carried_contacts(r.record_path, columns)) is not None:
+                        pairs.setdefault(int(r.seed), {})[side] = x
+            both = sorted(seed for seed, p in pairs.items() if len(p) == 2)
+            if not both:
+                continue
+            mean = {
+                side: (
+                    np.mean([pairs[s][side][1] for s in both]),
+                    np.mean([pairs[s][side][0]["palm"][0] for s in both]),
+                )
+                for side in ("lever", "base")
+            }
+            rows.append(
+                f"| `{lever}` | {task} | {_seeds(both)} | {mean['lever'][0]:.1f} / {mean['base'][0]:.1f} | "
+                f"{mean['lever'][1]:.2f} / {mean['base'][1]:.2f} |"
+            )
+    if not rows:
+        return ""
+    cols = (
+        "lever",
+        "task",
+        "seeds both carried",
+        f"links in contact: lever / `{GRASP_LEVER}`",
+        "palm's share",
+    )
+    return (
+        f"\nThe levers built on `{GRASP_LEVER}` to close the grasp, against it on the seeds on which both "
+        "carried the object (their kept time series): the mean links in contact per carried sample, and the "
+        "share of the carried samples on which the palm touches the object.\n\n"
+        + pipe_table(cols, "lllrr", rows)
     )
 
 
