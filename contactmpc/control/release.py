@@ -138,6 +138,12 @@ class ReleaseSchedule:
             control points whose support meets that interval too (the hand may move around the object
             it lets go of); ``None``: only the space's ``root_window``. Without a ``root_window`` the
             wrist is sampled only there.
+        blend: seconds over which ``reset`` takes the committed control points to the release nominal:
+            each reset control point moves from where the plans left it toward the nominal by a weight
+            that grows from 0 at the last expected contact to 1 ``blend`` seconds after it, at the
+            point's Greville abscissa, so the grip the plans walked into eases into the opening instead
+            of jumping to it (on the apple the jump rolls the object the hand just set down); 0 (the
+            default): the nominal at once.
     """
 
     @checked
@@ -151,6 +157,7 @@ class ReleaseSchedule:
         reset: bool = False,
         noise: Annotated[float, Ge(0)] = 1.0,
         window: tuple[float, float] | None = None,
+        blend: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         self.pause = float(pause)
         self.open = float(open)
@@ -159,10 +166,11 @@ class ReleaseSchedule:
         self.backoff_window = time_window("sampler.release.backoff_window", backoff_window)
         self.reset = bool(reset)
         self.noise = float(noise)
+        self.blend = float(blend)
         self.window = time_window("sampler.release.window", window)
 
     def __repr__(self) -> str:
-        fields = ("pause", "open", "open_to", "backoff", "backoff_window", "reset", "noise", "window")
+        fields = ("pause", "open", "open_to", "backoff", "backoff_window", "reset", "noise", "window", "blend")
         return f"ReleaseSchedule({', '.join(f'{k}={getattr(self, k)!r}' for k in fields)})"
 
     def root_nominal(

@@ -630,16 +630,24 @@ class Planner:
     def release(self) -> np.ndarray:
         """Put the committed control points whose support meets the rest of the trial after the
         reference's last expected contact to the release nominal (``problem.release_theta``:
-        ``sampler.release.reset``); done once.
+        ``sampler.release.reset``), the wrist keeping the carry's shift; with the schedule's ``blend``,
+        partway there by each point's Greville abscissa; done once.
 
         Returns:
             the indices of the control points reset.
         """
         spline, at = self.problem.spline, self.problem.last_contact
         reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
-        self.theta[reset] = self.problem.release_theta[reset]
+        target = self.problem.release_theta[reset].copy()
         if self.carry_gain:  # the wrist keeps the shift that carried the object
-            self.theta[reset, :6] += self._carry
+            target[:, :6] += self._carry
+        blend = self.problem.space.release.blend
+        if blend > 0.0:  # from the committed points toward the nominal, by each point's Greville abscissa
+            k, knots = spline.degree, spline.knots
+            greville = np.array([knots[j + 1 : j + k + 1].mean() for j in reset])
+            weight = np.clip((greville - at) / blend, 0.0, 1.0)[:, None]
+            target = self.theta[reset] + weight * (target - self.theta[reset])
+        self.theta[reset] = target
         self._release_at = None
         return reset
 
