@@ -504,6 +504,51 @@ def test_release_reset_puts_the_committed_control_points_back_to_the_nominal_whe
         planner.close()
 
 
+def test_release_blend_eases_the_committed_points_into_the_nominal(scene_for):
+    """sampler.release.blend: the reset moves each control point from where the plans left it toward the
+    release nominal by its Greville abscissa's share of the blend after the last contact: none at or before
+    it, all of the way from ``blend`` after it on, a convex combination between; blend 0: the nominal."""
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.samplers import PCASplineSpace
+
+    scene = scene_for("apple")
+    ref = _letting_go(scene)
+
+    def reset(blend: float):
+        space = PCASplineSpace(0.2, release=ReleaseSchedule(reset=True, open=0.1, blend=blend))
+        problem = Problem.build(scene, ref, space, TrackingCost(), horizon=0.2, num_control_points=24)
+        planner = PredictiveSampling(num_samples=1, horizon=0.2, nthread=1)
+        planner.bind(problem)
+        planner.theta = problem.theta0 + 0.3
+        committed = planner.theta.copy()
+        points = planner.release()
+        planner.close()
+        return problem, points, committed, planner.theta
+
+    problem, points, committed, at_once = reset(0.0)
+    np.testing.assert_array_equal(at_once[points], problem.release_theta[points])
+    blend = 0.5
+    problem, same, committed, eased = reset(blend)
+    np.testing.assert_array_equal(same, points)
+    spline, last = problem.spline, problem.last_contact
+    k, knots = spline.degree, spline.knots
+    greville = np.array([knots[j + 1 : j + k + 1].mean() for j in points])
+    weight = np.clip((greville - last) / blend, 0.0, 1.0)
+    assert (weight == 0).any() and (weight == 1).any() and ((weight > 0) & (weight < 1)).any()
+    nominal = problem.release_theta[points]
+    np.testing.assert_array_equal(eased[points][weight == 0], committed[points][weight == 0])
+    np.testing.assert_allclose(eased[points][weight == 1], nominal[weight == 1], atol=1e-12)
+    mid = (weight > 0) & (weight < 1)
+    np.testing.assert_allclose(
+        eased[points][mid],
+        committed[points][mid] + weight[mid, None] * (nominal[mid] - committed[points][mid]),
+    )
+    untouched = np.setdiff1d(np.arange(spline.num_control_points), points)
+    np.testing.assert_array_equal(eased[untouched], committed[untouched])
+
+
 def test_release_noise_scales_the_sampling_after_the_last_contact_only():
     """sampler.release.noise: the rows of the control points whose support lies after the last expected
     contact get that fraction of the noise; the others keep theirs; no change where the reference ends
