@@ -965,6 +965,100 @@ def grasp_levers(ok: pd.DataFrame) -> str:
     )
 
 
+def release_lever(lever: str) -> bool:
+    """Whether ``lever`` is :data:`GRASP_LEVER` with only release options on top (``sampler.release.*``,
+    ``release=``): a lever that changes nothing before the reference's last expected contact but the plans
+    whose window reaches past it."""
+    parts = lever.split()
+    extra = parts[len(GRASP_LEVER.split()) :]
+    return (
+        parts[: len(GRASP_LEVER.split())] == GRASP_LEVER.split()
+        and bool(extra)
+        and all(p.startswith(("sampler.release.", "release=")) for p in extra)
+    )
+
+
+def departs(a: str, b: str) -> float | None:
+    """The first logged time (s) at which trial ``a``'s plant (its kept ``qpos``) differs from trial
+    ``b``'s (record paths); ``None`` where they never do or a time series is missing."""
+    series = []
+    for path in (a, b):
+        f = Path(path).parent / "timeseries.npz"
+        if not f.is_file():
+            return None
+        series.append(np.load(f))
+    n = min(len(series[0]["time"]), len(series[1]["time"]))
+    differ = np.flatnonzero((series[0]["qpos"][:n] != series[1]["qpos"][:n]).any(axis=1))
+    return float(series[0]["time"][differ[0]]) if differ.size else None
+
+
+def _let_go(x) -> str:
+    """A trial's object error (a record's fields) where the contact span ends → at the trial's end."""
+    where = (
+        (x["object_position_error_span_final"], x["object_rotation_error_span_final"]),
+        (x["final_object_position_error"], x["final_object_rotation_error"]),
+    )
+    return " → ".join(f"{pos * 1000:.0f} mm, {math.degrees(rot):.0f}°" for pos, rot in where)
+
+
+def release_section(study) -> str:
+    """The release levers (:func:`release_lever`) against :data:`GRASP_LEVER` on the same seeds, per trial:
+    when it departs from :data:`GRASP_LEVER`'s trial (:func:`departs`; on one processor and code the two
+    are the same trial until the plans reach past the last expected contact), the object's error where the
+    hand lets go and at the end, finished cleanly."""
+    ok = lever_frame(study)
+    if not len(ok):
+        return "No release lever has been run yet.\n"
+    base = ok[ok["lever"] == GRASP_LEVER].set_index(["task", "seed"])
+    rows, tally = [], {}
+    for lever in sorted(set(ok["lever"])):
+        if not release_lever(lever):
+            continue
+        for r in ok[ok["lever"] == lever].sort_values(["task", "seed"]).itertuples():
+            if (r.task, r.seed) not in base.index:
+                continue
+            b = base.loc[(r.task, r.seed)]
+            at = departs(r.record_path, b["record_path"])
+            end = float(r.contact_span_end)
+            when = "never" if at is None else f"{at - end:+.2f} s"
+            rec = r._asdict()
+            rows.append(
+                f"| `{lever}` | {r.task} | {r.seed} | {when} | {_let_go(b)} | {_let_go(rec)} | "
+                f"{'yes' if r.finished_cleanly else 'no'} / {'yes' if b['finished_cleanly'] else 'no'} |"
+            )
+            t = tally.setdefault(lever, [0, 0, 0, []])
+            t[0] += 1
+            t[1] += bool(r.finished_cleanly)
+            t[2] += bool(b["finished_cleanly"])
+            lost = (
+                endings(pd.DataFrame([{**b.to_dict(), "seed": r.seed}]), r.task)
+                if not b["finished_cleanly"]
+                else {}
+            )
+            if lost.get("toppled") or lost.get("outside"):
+                t[3].append(f"{r.task} {r.seed}")
+    if not rows:
+        return "No release lever has been run yet.\n"
+    cols = ("lever", "task", "seed", f"departs from `{GRASP_LEVER}`, after the last expected contact",
+            f"`{GRASP_LEVER}`: error where the hand lets go → at the end", "lever: the same",
+            f"finished cleanly: lever / `{GRASP_LEVER}`")  # fmt: skip
+    summary = "; ".join(
+        f"`{k}` {v[1]} of {v[0]} finished cleanly against {v[2]}"
+        + (f" (`{GRASP_LEVER}` lost the object as the hand let go on {', '.join(v[3])})" if v[3] else "")
+        for k, v in tally.items()
+    )
+    return (
+        f"Options of the release on top of `{GRASP_LEVER}` change nothing before the reference's last "
+        "expected contact but the plans whose window reaches past it, so on the same processor and code a "
+        f"trial is `{GRASP_LEVER}`'s own until then and the pair differs by the release alone (the column "
+        "*departs* says where the two plants first differ, from their kept time series; negative: a plan "
+        "before the last contact already saw the changed release). Per trial, the object's position and "
+        "orientation error where the contact span ends and at the trial's end. Lost as the hand let go: "
+        "inside the task's tolerances where the span ends and outside them at the end, or toppled "
+        "(*Where the method falls short*). " + summary + ".\n\n" + pipe_table(cols, "lllrlll", rows)
+    )
+
+
 ROUGH = "slide_friction"
 ROUGH_RUN = (
     "for s in $(seq 0 9); do python launch.py experiment=method task=paper_doorknob task.slide_friction=0.5 "
@@ -1664,6 +1758,8 @@ def report(study) -> str:
         + levers_section(study, df)
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
+        + "\n## Letting go\n\n"
+        + release_section(study)
         + "\n## The doorknob on a slide with friction\n\n"
         + rough_slide(rough, df, study)
         + "\n## Online, in wall-clock time\n\n"
