@@ -650,3 +650,59 @@ def test_the_screen_sets_contact_guidance_beside_the_same_iterations_without_it(
     )
     assert "median TTF 1.00 against 0.50; CPU-s × 4.00" in text
     assert spec.guidance_findings(pd.DataFrame(rows[:4])) == ""
+
+
+def test_the_method_study_pairs_each_release_lever_with_the_trial_it_departs_from(
+    monkeypatch, tmp_path
+) -> None:
+    """release_section: only carry=held with release options on top; per trial, where its plant first
+    differs from carry=held's of the same seed (from the kept qpos), both errors where the hand lets go and
+    at the end, finished cleanly; carry=held's release losses named; nothing run, a line that says so."""
+    import math
+
+    import numpy as np
+    import pandas as pd
+
+    spec = Study("method").spec
+    assert spec.release_lever("carry=held sampler.release.noise=1.0 sampler.release.blend=1.0")
+    assert spec.release_lever("carry=held release=backoff")
+    assert not spec.release_lever("carry=held") and not spec.release_lever("carry=held grip=squeeze")
+    assert not spec.release_lever("sampler.release.noise=1.0")
+    t = np.arange(10) * 0.5
+    qpos = np.zeros((10, 3))
+    for name, moved in (("base", None), ("lever", 6)):
+        (tmp_path / name).mkdir()
+        q = qpos.copy()
+        if moved is not None:
+            q[moved:, 1] = 1e-9  # the lever's plant departs at t = 3.0
+        np.savez(tmp_path / name / "timeseries.npz", time=t, qpos=q)
+    assert spec.departs(str(tmp_path / "lever" / "trial.json"), str(tmp_path / "base" / "trial.json")) == 3.0
+    assert spec.departs(str(tmp_path / "base" / "trial.json"), str(tmp_path / "base" / "trial.json")) is None
+    assert spec.departs(str(tmp_path / "none" / "trial.json"), str(tmp_path / "base" / "trial.json")) is None
+    row = dict(task="apple", seed=8, contact_span_end=2.5, object_position_error_span_final=0.018,
+               object_rotation_error_span_final=math.radians(7), completed=True)  # fmt: skip
+    lever = "carry=held sampler.release.noise=1.0"
+    frame = pd.DataFrame([
+        {**row, "lever": "carry=held", "record_path": str(tmp_path / "base" / "trial.json"),
+         "final_object_position_error": 0.037, "final_object_rotation_error": math.radians(39),
+         "finished_cleanly": False},
+        {**row, "lever": lever, "record_path": str(tmp_path / "lever" / "trial.json"),
+         "final_object_position_error": 0.014, "final_object_rotation_error": math.radians(8),
+         "finished_cleanly": True},
+        {**row, "lever": "carry=held grip=squeeze", "record_path": str(tmp_path / "lever" / "trial.json"),
+         "final_object_position_error": 0.014, "final_object_rotation_error": math.radians(8),
+         "finished_cleanly": True},
+    ])  # fmt: skip
+    monkeypatch.setattr(spec, "lever_frame", lambda study: frame)
+    text = spec.release_section(None)
+    assert (
+        "| `carry=held sampler.release.noise=1.0` | apple | 8 | +0.50 s | 18 mm, 7° → 37 mm, 39° | "
+        "18 mm, 7° → 14 mm, 8° | yes / no |" in text
+    )
+    assert (
+        "1 of 1 finished cleanly against 0 (`carry=held` lost the object as the hand let go on apple 8)"
+        in text
+    )
+    assert "grip=squeeze" not in text
+    monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
+    assert spec.release_section(None).startswith("No release lever")
