@@ -594,6 +594,13 @@ LEVER_TEXT = {
     "method's 0): each link whose contact the reference expects is pulled onto the object wherever it "
     "touches it, read from the clearance term's distance sensors, so the palm and the proximal links close "
     "on the object as the reference's do (the method_screen study screened it on the stapler only)",
+    "sampler.release.blend=1.0": "the release reset eases the committed control points into the release "
+    "nominal over 1 s (`sampler.release.blend`; the method's 0: at once): the grip the plans walked into "
+    "(finger targets at their limits) no longer jumps to the opening",
+    "sampler.release.noise=1.0": "the release searched (`sampler.release.noise`; the method's 0, a "
+    "schedule): the control points after the last expected contact get the sampling noise of before it, "
+    "so the plans choose how the hand lets go by the object's tracking cost after it",
+    "sampler.release.open=2.5": "the fingers open over 2.5 s (`sampler.release.open`; the method's 1 s)",
 }
 
 
