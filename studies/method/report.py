@@ -999,8 +999,12 @@ def departs(a: str, b: str) -> float | None:
     return float(series[0]["time"][differ[0]]) if differ.size else None
 
 
-def _let_go(x) -> str:
-    """A trial's object error (a record's fields) where the contact span ends → at the trial's end."""
+def _let_go(x, task: str) -> str:
+    """A trial's object error (a record's fields) where the contact span ends → at the trial's end: the free
+    body's position and orientation, or an articulated object's articulations (the doorknob's)."""
+    if task == "doorknob":
+        where = (x["object_articulation_error_span_final"], x["final_object_articulation_error"])
+        return " → ".join(f"{1e3 * v:.0f} x 1e-3" for v in where)
     where = (
         (x["object_position_error_span_final"], x["object_rotation_error_span_final"]),
         (x["final_object_position_error"], x["final_object_rotation_error"]),
@@ -1028,9 +1032,9 @@ def release_section(study) -> str:
             at = departs(r.record_path, b["record_path"])
             end = float(r.contact_span_end)
             when = "never" if at is None else f"{at - end:+.2f} s"
-            rec = r._asdict()
+            errors = f"{_let_go(b, r.task)} | {_let_go(r._asdict(), r.task)}"
             rows.append(
-                f"| `{lever}` | {r.task} | {r.seed} | {when} | {_let_go(b)} | {_let_go(rec)} | "
+                f"| `{lever}` | {r.task} | {r.seed} | {when} | {errors} | "
                 f"{'yes' if r.finished_cleanly else 'no'} / {'yes' if b['finished_cleanly'] else 'no'} |"
             )
             t = tally.setdefault(lever, [0, 0, 0, []])
@@ -1060,7 +1064,8 @@ def release_section(study) -> str:
         f"trial is `{GRASP_LEVER}`'s own until then and the pair differs by the release alone (the column "
         "*departs* says where the two plants first differ, from their kept time series; negative: a plan "
         "before the last contact already saw the changed release). Per trial, the object's position and "
-        "orientation error where the contact span ends and at the trial's end. Lost as the hand let go: "
+        "orientation error where the contact span ends and at the trial's end (the doorknob's: its "
+        "articulation, rad or m for a slide). Lost as the hand let go: "
         "inside the task's tolerances where the span ends and outside them at the end, or toppled "
         "(*Where the method falls short*). " + summary + ".\n\n" + pipe_table(cols, "lllrlll", rows)
     )
