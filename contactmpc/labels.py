@@ -3,7 +3,7 @@
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
 ``robust``; or a named combination such as ``wrist_clearance``) with nine independent groups on top:
 ``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance``), ``release``
-(``none | reset | open | scheduled | flat | backoff``), ``compensation`` (``none | predict``),
+(``none | reset | open | scheduled | flat | backoff | eased``), ``compensation`` (``none | predict``),
 ``effort`` (``uniform | acquire``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``),
 ``carry`` (``none | wrist | pose | held``) and ``grip`` (``none | squeeze | carried | touched``).
 Records made before the groups existed name the combination by one variant label (``variant:
