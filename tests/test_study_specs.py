@@ -706,3 +706,33 @@ def test_the_method_study_pairs_each_release_lever_with_the_trial_it_departs_fro
     assert "grip=squeeze" not in text
     monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
     assert spec.release_section(None).startswith("No release lever")
+
+
+def test_the_method_study_says_which_levers_meet_the_target_where(monkeypatch) -> None:
+    """levers_target: a lever meets the target on a task only with all of the sweep's seeds run there
+    (held-out seeds do not count); the tasks no lever meets it on are named; no lever trials, nothing."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    tasks, seeds = spec.plan()
+    rows = []
+    for seed in seeds:  # "a" on the first task: every seed, all but one clean; "b": one seed short
+        rows.append(dict(lever="a", task=tasks[0], seed=seed, seeds="sweep", completed=True,
+                         finished_cleanly=seed != seeds[0]))  # fmt: skip
+        if seed != seeds[-1]:
+            rows.append(dict(lever="b", task=tasks[0], seed=seed, seeds="sweep", completed=True,
+                             finished_cleanly=True))  # fmt: skip
+    rows.append(
+        dict(lever="b", task=tasks[0], seed=99, seeds="held out", completed=True, finished_cleanly=True)
+    )
+    frame = pd.DataFrame(rows)
+    monkeypatch.setattr(spec, "lever_frame", lambda study: frame)
+    n = len(seeds)
+    text = spec.levers_target(None)
+    assert (
+        f"the target is met on {tasks[0]} by `a` ({n}/{n} completed, {n - 1}/{n} finished cleanly)." in text
+    )
+    assert "`b`" not in text
+    assert f"On all {len(tasks)} tasks: none; on none by any lever: {', '.join(tasks[1:])}." in text
+    monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
+    assert spec.levers_target(None) == ""
