@@ -700,10 +700,22 @@ def test_the_method_study_pairs_each_release_lever_with_the_trial_it_departs_fro
         "18 mm, 7° → 14 mm, 8° | yes / no |" in text
     )
     assert (
-        "1 of 1 finished cleanly against 0 (`carry=held` lost the object as the hand let go on apple 8)"
-        in text
+        "1 of 1 finished cleanly against 0 (`carry=held` lost the object as the hand let go on apple 8; the "
+        "lever finished 1 of those cleanly)" in text
     )
     assert "grip=squeeze" not in text
+    # the other way round, another lever on seed 8: carry=held's trial clean, the lever's lost as it let go
+    swapped = frame.iloc[:2].copy()
+    swapped["lever"] = ["carry=held", "carry=held release=backoff"]
+    swapped["record_path"] = swapped["record_path"].iloc[::-1].to_list()
+    for c in ("final_object_position_error", "final_object_rotation_error", "finished_cleanly"):
+        swapped[c] = swapped[c].iloc[::-1].to_list()
+    monkeypatch.setattr(spec, "lever_frame", lambda study: swapped)
+    text = spec.release_section(None)
+    assert (
+        "`carry=held release=backoff` 0 of 1 finished cleanly against 1 (the lever lost it so where "
+        "`carry=held` finished cleanly on apple 8)" in text
+    )
     monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
     assert spec.release_section(None).startswith("No release lever")
 

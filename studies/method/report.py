@@ -1037,26 +1037,43 @@ def release_section(study) -> str:
                 f"| `{lever}` | {r.task} | {r.seed} | {when} | {errors} | "
                 f"{'yes' if r.finished_cleanly else 'no'} / {'yes' if b['finished_cleanly'] else 'no'} |"
             )
-            t = tally.setdefault(lever, [0, 0, 0, []])
+            t = tally.setdefault(lever, [0, 0, 0, [], [], []])
             t[0] += 1
             t[1] += bool(r.finished_cleanly)
             t[2] += bool(b["finished_cleanly"])
-            lost = (
-                endings(pd.DataFrame([{**b.to_dict(), "seed": r.seed}]), r.task)
-                if not b["finished_cleanly"]
-                else {}
-            )
-            if lost.get("toppled") or lost.get("outside"):
-                t[3].append(f"{r.task} {r.seed}")
+            free = r.task != "doorknob"  # the doorknob's knob has no free body to topple or set down
+            for side, other, into in (
+                (b, r.finished_cleanly, 3),
+                (pd.Series(r._asdict()), b["finished_cleanly"], 5),
+            ):
+                lost = (
+                    endings(pd.DataFrame([{**side.to_dict(), "seed": r.seed}]), r.task)
+                    if free and side["completed"] and not side["finished_cleanly"]
+                    else {}
+                )
+                if (lost.get("toppled") or lost.get("outside")) and (into == 3 or other):
+                    t[into].append(f"{r.task} {r.seed}")
+                    if into == 3 and other:
+                        t[4].append(f"{r.task} {r.seed}")
     if not rows:
         return "No release lever has been run yet.\n"
     cols = ("lever", "task", "seed", f"departs from `{GRASP_LEVER}`, after the last expected contact",
             f"`{GRASP_LEVER}`: error where the hand lets go → at the end", "lever: the same",
             f"finished cleanly: lever / `{GRASP_LEVER}`")  # fmt: skip
+
+    def lost(v) -> str:
+        words = []
+        if v[3]:
+            words.append(
+                f"`{GRASP_LEVER}` lost the object as the hand let go on {', '.join(v[3])}; the lever "
+                f"finished {len(v[4])} of those cleanly"
+            )
+        if v[5]:
+            words.append(f"the lever lost it so where `{GRASP_LEVER}` finished cleanly on {', '.join(v[5])}")
+        return f" ({'; '.join(words)})" if words else ""
+
     summary = "; ".join(
-        f"`{k}` {v[1]} of {v[0]} finished cleanly against {v[2]}"
-        + (f" (`{GRASP_LEVER}` lost the object as the hand let go on {', '.join(v[3])})" if v[3] else "")
-        for k, v in tally.items()
+        f"`{k}` {v[1]} of {v[0]} finished cleanly against {v[2]}{lost(v)}" for k, v in tally.items()
     )
     return (
         f"Options of the release on top of `{GRASP_LEVER}` change nothing before the reference's last "
