@@ -170,7 +170,17 @@ class ReleaseSchedule:
         self.window = time_window("sampler.release.window", window)
 
     def __repr__(self) -> str:
-        fields = ("pause", "open", "open_to", "backoff", "backoff_window", "reset", "noise", "window", "blend")
+        fields = (
+            "pause",
+            "open",
+            "open_to",
+            "backoff",
+            "backoff_window",
+            "reset",
+            "noise",
+            "window",
+            "blend",
+        )
         return f"ReleaseSchedule({', '.join(f'{k}={getattr(self, k)!r}' for k in fields)})"
 
     def root_nominal(
