@@ -220,3 +220,12 @@ def test_pc_control_points_map_exactly_to_joint_control_points(whiten: bool) -> 
     np.testing.assert_allclose(
         pcc.joint_curves(times, noisy), pcc.pca.from_pc(spline.evaluate(noisy, times)), atol=1e-9
     )
+
+
+def test_greville_abscissae_run_from_the_domain_start_to_its_end_in_order():
+    """The Greville abscissa of a clamped spline's first control point is the domain's start, of its last
+    the end, increasing between, each the mean of its degree inner knots."""
+    spline = UniformBSpline(12, (0.0, 10.0))
+    g = spline.greville(np.arange(12))
+    assert g[0] == 0.0 and g[-1] == 10.0 and np.all(np.diff(g) > 0)
+    np.testing.assert_allclose(g[5], spline.knots[6:9].mean())

@@ -203,9 +203,7 @@ class SplineSpace:
         ``noise_ramp`` 1."""
         if self.noise_ramp == 1.0:
             return None
-        k, knots = spline.degree, spline.knots
-        greville = np.array([knots[j + 1 : j + k + 1].mean() for j in window])
-        x = np.clip((greville - t) / horizon, 0.0, 1.0)
+        x = np.clip((spline.greville(window) - t) / horizon, 0.0, 1.0)
         return (1.0 + (self.noise_ramp - 1.0) * x)[:, None]
 
     # --- evaluation ---------------------------------------------------------------------------

@@ -225,6 +225,12 @@ class UniformBSpline:
             raise IndexError(f"control point index {j} out of range [0, {self._num_control_points})")
         return float(self._knots[j]), float(self._knots[j + self._degree + 1])
 
+    def greville(self, indices: np.ndarray) -> np.ndarray:
+        """The Greville abscissae (s) of the control points ``indices``: the mean of each one's ``degree``
+        inner knots, where it pulls the curve most."""
+        k = self._degree
+        return np.array([self._knots[j + 1 : j + k + 1].mean() for j in indices])
+
     def window_indices(self, t: float, horizon: float) -> np.ndarray:
         """Indices of the control points that influence the curve on ``[t, t + horizon]``.
 

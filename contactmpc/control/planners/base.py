@@ -643,9 +643,7 @@ class Planner:
             target[:, :6] += self._carry
         blend = self.problem.space.release.blend
         if blend > 0.0:  # from the committed points toward the nominal, by each point's Greville abscissa
-            k, knots = spline.degree, spline.knots
-            greville = np.array([knots[j + 1 : j + k + 1].mean() for j in reset])
-            weight = np.clip((greville - at) / blend, 0.0, 1.0)[:, None]
+            weight = np.clip((spline.greville(reset) - at) / blend, 0.0, 1.0)[:, None]
             target = self.theta[reset] + weight * (target - self.theta[reset])
         self.theta[reset] = target
         self._release_at = None
