@@ -1012,6 +1012,16 @@ def _let_go(x, task: str) -> str:
     return " → ".join(f"{pos * 1000:.0f} mm, {math.degrees(rot):.0f}°" for pos, rot in where)
 
 
+def lost_letting_go(x: pd.Series, task: str, seed: int) -> bool:
+    """Whether a free object's completed trial (a record's fields) lost its object as the hand let go: inside
+    the tolerances where the span ends and outside at the end, or toppled (:func:`endings`); never for the
+    doorknob, whose knob has no free body to topple or set down."""
+    if task == "doorknob" or not x["completed"] or x["finished_cleanly"]:
+        return False
+    found = endings(pd.DataFrame([{**x.to_dict(), "seed": seed}]), task)
+    return bool(found.get("toppled") or found.get("outside"))
+
+
 def release_section(study) -> str:
     """The release levers (:func:`release_lever`) against :data:`GRASP_LEVER` on the same seeds, per trial:
     when it departs from :data:`GRASP_LEVER`'s trial (:func:`departs`; on one processor and code the two
@@ -1037,43 +1047,41 @@ def release_section(study) -> str:
                 f"| `{lever}` | {r.task} | {r.seed} | {when} | {errors} | "
                 f"{'yes' if r.finished_cleanly else 'no'} / {'yes' if b['finished_cleanly'] else 'no'} |"
             )
-            t = tally.setdefault(lever, [0, 0, 0, [], [], []])
-            t[0] += 1
-            t[1] += bool(r.finished_cleanly)
-            t[2] += bool(b["finished_cleanly"])
-            free = r.task != "doorknob"  # the doorknob's knob has no free body to topple or set down
-            for side, other, into in (
-                (b, r.finished_cleanly, 3),
-                (pd.Series(r._asdict()), b["finished_cleanly"], 5),
-            ):
-                lost = (
-                    endings(pd.DataFrame([{**side.to_dict(), "seed": r.seed}]), r.task)
-                    if free and side["completed"] and not side["finished_cleanly"]
-                    else {}
-                )
-                if (lost.get("toppled") or lost.get("outside")) and (into == 3 or other):
-                    t[into].append(f"{r.task} {r.seed}")
-                    if into == 3 and other:
-                        t[4].append(f"{r.task} {r.seed}")
+            t = tally.setdefault(
+                lever, {"n": 0, "clean": 0, "base_clean": 0, "base_lost": [], "fixed": [], "lost": []}
+            )
+            where = f"{r.task} {r.seed}"
+            t["n"] += 1
+            t["clean"] += bool(r.finished_cleanly)
+            t["base_clean"] += bool(b["finished_cleanly"])
+            if lost_letting_go(b, r.task, r.seed):
+                t["base_lost"].append(where)
+                if r.finished_cleanly:
+                    t["fixed"].append(where)
+            if b["finished_cleanly"] and lost_letting_go(pd.Series(r._asdict()), r.task, r.seed):
+                t["lost"].append(where)
     if not rows:
         return "No release lever has been run yet.\n"
     cols = ("lever", "task", "seed", f"departs from `{GRASP_LEVER}`, after the last expected contact",
             f"`{GRASP_LEVER}`: error where the hand lets go → at the end", "lever: the same",
             f"finished cleanly: lever / `{GRASP_LEVER}`")  # fmt: skip
 
-    def lost(v) -> str:
+    def lost(v: dict) -> str:
         words = []
-        if v[3]:
+        if v["base_lost"]:
             words.append(
-                f"`{GRASP_LEVER}` lost the object as the hand let go on {', '.join(v[3])}; the lever "
-                f"finished {len(v[4])} of those cleanly"
+                f"`{GRASP_LEVER}` lost the object as the hand let go on {', '.join(v['base_lost'])}; the "
+                f"lever finished {len(v['fixed'])} of those cleanly"
             )
-        if v[5]:
-            words.append(f"the lever lost it so where `{GRASP_LEVER}` finished cleanly on {', '.join(v[5])}")
+        if v["lost"]:
+            words.append(
+                f"the lever lost it so where `{GRASP_LEVER}` finished cleanly on {', '.join(v['lost'])}"
+            )
         return f" ({'; '.join(words)})" if words else ""
 
     summary = "; ".join(
-        f"`{k}` {v[1]} of {v[0]} finished cleanly against {v[2]}{lost(v)}" for k, v in tally.items()
+        f"`{k}` {v['clean']} of {v['n']} finished cleanly against {v['base_clean']}{lost(v)}"
+        for k, v in tally.items()
     )
     return (
         f"Options of the release on top of `{GRASP_LEVER}` change nothing before the reference's last "
