@@ -851,9 +851,8 @@ def carried(series) -> np.ndarray | None:
     return up if up.any() else None
 
 
-def _grasp_groups() -> tuple[dict[str, list[int]], int]:
-    """The link groups of :func:`grasp_section` as columns of a trial's ``contacts`` (the Allegro's links),
-    and the palm's column."""
+def _grasp_groups() -> dict[str, list[int]]:
+    """The link groups of :func:`grasp_section` as columns of a trial's ``contacts`` (the Allegro's links)."""
     from contactmpc.hands import AllegroPaperHand
 
     links = AllegroPaperHand.LINKS
@@ -862,7 +861,7 @@ def _grasp_groups() -> tuple[dict[str, list[int]], int]:
         groups[f"{name}, base and proximal"] = [f"{finger}_base", f"{finger}_proximal"]
         groups[f"{name}, medial"] = [f"{finger}_medial"]
         groups[f"{name}, distal and tip"] = [f"{finger}_distal", f"{finger}_tip"]
-    return {g: [links.index(n) for n in names] for g, names in groups.items()}, links.index("palm")
+    return {g: [links.index(n) for n in names] for g, names in groups.items()}
 
 
 def carried_contacts(record_path: str, columns: dict[str, list[int]]) -> tuple[dict, float, float] | None:
@@ -887,7 +886,7 @@ def grasp_section(study) -> str:
     :func:`grasp_levers`, the other levers' contacts against it."""
     everything = lever_frame(study)
     ok = everything[everything["lever"] == GRASP_LEVER] if len(everything) else everything
-    columns, _ = _grasp_groups()
+    columns = _grasp_groups()
     per_task, counts = {}, []
     for task in plan()[0]:
         shares = [
@@ -929,19 +928,24 @@ def grasp_levers(ok: pd.DataFrame) -> str:
     """The levers built to close the grasp, against :data:`GRASP_LEVER` on the seeds both carried the object:
     per lever that builds on it and task, the mean links in contact while carried and the palm's share of
     the carried samples (:func:`carried_contacts`); empty where no such lever has a time series kept."""
-    columns, _ = _grasp_groups()
-    base = ok[ok["lever"] == GRASP_LEVER] if len(ok) else ok
+    columns = _grasp_groups()
+    levers = sorted(x for x in set(ok["lever"]) if x.startswith(GRASP_LEVER + " ")) if len(ok) else []
+    if not levers:
+        return ""
+    base = {  # GRASP_LEVER's carried contacts, read once for every lever
+        (r.task, int(r.seed)): x
+        for r in ok[ok["lever"] == GRASP_LEVER].itertuples()
+        if (x := carried_contacts(r.record_path, columns)) is not None
+    }
     rows = []
-    for lever in sorted(set(ok["lever"]) - {GRASP_LEVER}) if len(ok) else []:
-        if not lever.startswith(GRASP_LEVER + " "):
-            continue
+    for lever in levers:
         for task in plan()[0]:
             pairs = {}
-            for side, frame_ in (("lever", ok[ok["lever"] == lever]), ("base", base)):
-                for r in frame_[frame_["task"] == task].itertuples():
-                    if (x := carried_contacts(r.record_path, columns)) is not None:
-                        pairs.setdefault(int(r.seed), {})[side] = x
-            both = sorted(seed for seed, p in pairs.items() if len(p) == 2)
+            for r in ok[(ok["lever"] == lever) & (ok["task"] == task)].itertuples():
+                key = (task, int(r.seed))
+                if key in base and (x := carried_contacts(r.record_path, columns)) is not None:
+                    pairs[int(r.seed)] = {"lever": x, "base": base[key]}
+            both = sorted(pairs)
             if not both:
                 continue
             mean = {
