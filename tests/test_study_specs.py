@@ -538,12 +538,14 @@ def test_the_method_study_says_which_links_hold_the_carried_object(monkeypatch, 
              expected_contacts=expected)  # fmt: skip
     b = str(tmp_path / "b" / "trial.json")
     frame = pd.DataFrame({"lever": [spec.GRASP_LEVER, f"{spec.GRASP_LEVER} grip=squeeze", "grip=squeeze",
-                                    f"{spec.GRASP_LEVER} grip=squeeze"],
-                          "task": ["apple", "apple", "apple", "bottle"], "seed": [3, 3, 3, 3],
-                          "record_path": [str(tmp_path / "a" / "trial.json"), b, b, b]})  # fmt: skip
+                                    f"{spec.GRASP_LEVER} grip=squeeze",
+                                    f"{spec.GRASP_LEVER} sampler.release.noise=1.0"],
+                          "task": ["apple", "apple", "apple", "bottle", "apple"], "seed": [3, 3, 3, 3, 3],
+                          "record_path": [str(tmp_path / "a" / "trial.json"), b, b, b, b]})  # fmt: skip
     text = spec.grasp_section(None)
     assert "| `carry=held grip=squeeze` | apple | seed 3 | 3.0 / 1.6 | 1.00 / 0.60 |" in text
     assert "| `grip=squeeze` |" not in text and "| bottle |" not in text
+    assert "sampler.release.noise" not in text  # a release lever changes nothing while carried
     monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
     assert spec.grasp_section(None).startswith("No `carry=held` trial")
 

@@ -926,10 +926,12 @@ def grasp_section(study) -> str:
 
 def grasp_levers(ok: pd.DataFrame) -> str:
     """The levers built to close the grasp, against :data:`GRASP_LEVER` on the seeds both carried the object:
-    per lever that builds on it and task, the mean links in contact while carried and the palm's share of
+    per lever that builds on it (not a :func:`release_lever`, which changes nothing before the release) and
+    task, the mean links in contact while carried and the palm's share of
     the carried samples (:func:`carried_contacts`); empty where no such lever has a time series kept."""
     columns = _grasp_groups()
-    levers = sorted(x for x in set(ok["lever"]) if x.startswith(GRASP_LEVER + " ")) if len(ok) else []
+    built_on = [x for x in set(ok["lever"]) if x.startswith(GRASP_LEVER + " ")] if len(ok) else []
+    levers = sorted(x for x in built_on if not release_lever(x))  # a release lever's carry is GRASP_LEVER's
     if not levers:
         return ""
     base = {  # GRASP_LEVER's carried contacts, read once for every lever
