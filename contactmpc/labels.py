@@ -46,6 +46,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "grasp_release": "full",
     "grasp_release_ahead": "full",
     "grasp_release_ahead_acquire": "full",
+    "grasp_held_eased": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -87,6 +88,15 @@ NAMED_METHODS: dict[str, dict[str, str]] = {
         "release": "flat",
         "compensation": "predict",
         "effort": "acquire",
+    },
+    "grasp_held_eased": {
+        "variant": "grasp_held_eased",
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "eased",
+        "compensation": "predict",
+        "effort": "acquire",
+        "carry": "held",
     },
 }
 """Variants of today that name a combination of groups (``conf/variant/<name>.yaml``'s defaults), read
