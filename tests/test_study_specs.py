@@ -51,11 +51,20 @@ def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_tar
         "release": "flat",
         "compensation": "predict",
     }
+    # the default: grasp_release_ahead_acquire with the carry and the release of its best levers
+    assert {g: m for g, m, _ in spec.groups()} == {
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "eased",
+        "compensation": "predict",
+        "effort": "acquire",
+        "carry": "held",
+    }
     assert all(text for _, _, text in spec.groups())
     tasks, seeds = spec.plan()
     assert tasks == ["doorknob", "apple", "bottle", "stapler"] and seeds == list(range(10))
     assert spec.variants() == list(spec.ORDER)
-    assert spec.ORDER[1:] == ("grasp_release_ahead", "grasp_release", "full")
+    assert spec.ORDER[1:] == ("grasp_release_ahead_acquire", "grasp_release_ahead", "grasp_release", "full")
     assert spec.others() == [v for v in spec.ORDER if v != spec.METHOD] and "full" in spec.others()
     assert spec.target(9, 8, 10) == "met" and spec.target(10, 7, 10) == "missed"
     assert spec.target(9, 8, 9).startswith("met (already") and spec.target(2, 1, 4).startswith(
@@ -262,7 +271,9 @@ def test_the_method_study_sets_online_runs_held_to_the_calibrated_latency_beside
                            "apply_after": held, "completed": done}  # fmt: skip
         (tmp_path / "online" / name / "trial.json").write_text(json.dumps(record))
     text = spec.held_online(SimpleNamespace(dir=tmp_path))
-    assert text.startswith("- online, stapler at slowdown 6, each plan held to act 170 ms after its state")
+    assert text.startswith(
+        f"- online, stapler, `{spec.METHOD}` at slowdown 6, each plan held to act 170 ms after its state"
+    )
     assert ": 1 of 2 completed; continuous replanning at the same slowdown: 1 of 2 completed" in text
     assert spec.held_online(SimpleNamespace(dir=tmp_path / "none")) == ""
 
@@ -381,6 +392,10 @@ def test_the_method_study_reads_the_replayed_releases_over_the_replays_near_thei
     )
     assert text.endswith("under the bound on 1 of 2.")
     assert spec.release_replays(table.iloc[:0]) == ""
+    # the replays name the method whose trials they replayed, read from the run folders' names
+    run = "effort=acquire,experiment=method,seed={},task=paper_doorknob,variant=grasp_release_ahead"
+    named = spec.release_replays(table.assign(record=[run.format(s) for s in table["seed"]]))
+    assert named.startswith("  Replayed from the state of each trial of `grasp_release_ahead_acquire` 0.5 s")
     # the own release on a slide with friction: its own sentence, over the same trials, not among the releases
     rough = pd.DataFrame(
         [(0, "recorded", 0.3, 0.0, 0.010), (1, "recorded", 0.4, 0.0, 0.030), (2, "recorded", 0.2, 0.0, 0.5)],
@@ -403,14 +418,15 @@ def test_fig3_counts_the_cells_a_sweep_plans_not_those_it_has_reached() -> None:
 
 
 def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen_on(monkeypatch) -> None:
-    """heldout: per task, the held-out trials' completed and clean counts beside the sweep's, with the
-    difference and Barnard's test; without a held-out trial, a line that says so."""
+    """heldout: per method and task, the held-out trials' completed and clean counts beside the sweep's, with
+    the difference and Barnard's test; a line where the method has none (the rows are another's); without a
+    held-out trial, a line that says so."""
     import pandas as pd
 
     spec = Study("method").spec
 
-    def trials(seeds, done, clean):
-        return pd.DataFrame({"task": "stapler", "variant": spec.METHOD, "seed": seeds, "counted": True,
+    def trials(seeds, done, clean, variant=spec.METHOD):
+        return pd.DataFrame({"task": "stapler", "variant": variant, "seed": seeds, "counted": True,
                              "completed": done, "finished_cleanly": clean})  # fmt: skip
 
     chosen = trials(range(10), [True] * 10, [True] * 6 + [False] * 4)
@@ -418,10 +434,21 @@ def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen
         spec, "frame", lambda study, folder=None: trials([10, 11], [True, False], [False] * 2)
     )
     text = spec.heldout(None, chosen)
-    assert "| stapler | 10 and 11 | 1 of 2 | 0 of 2 | 10 of 10 | 6 of 10 |" in text
-    assert "- stapler, completed: 1 of 2 held out against 10 of 10, -50 points" in text
+    assert f"| `{spec.METHOD}` | stapler | 10 and 11 | 1 of 2 | 0 of 2 | 10 of 10 | 6 of 10 |" in text
+    assert f"- `{spec.METHOD}`, stapler, completed: 1 of 2 held out against 10 of 10, -50 points" in text
+    assert "has no trial on these seeds yet" not in text
+    # only an older method on the held-out seeds: its rows, and a line that the method has none
+    older = spec.ORDER[1]
+    monkeypatch.setattr(
+        spec, "frame", lambda study, folder=None: trials([10, 11], [True, True], [True] * 2, older)
+    )
+    text = spec.heldout(None, pd.concat([chosen, chosen.assign(variant=older)]))
+    assert (
+        f"`{spec.METHOD}` has no trial on these seeds yet" in text and f"rows below are of `{older}`" in text
+    )
+    assert f"| `{older}` | stapler | 10 and 11 | 2 of 2 | 2 of 2 | 10 of 10 | 6 of 10 |" in text
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: trials([], [], []))
-    assert text.startswith(spec.heldout(None, chosen).removesuffix("No such trial is kept yet.\n"))
+    assert spec.heldout(None, chosen).endswith("No such trial is kept yet.\n")
 
 
 def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(monkeypatch, tmp_path) -> None:
@@ -471,6 +498,15 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
         in text
     )
     assert "`pacing=release place=wrist` 3 of 10 (stapler 0-2)" in text
+    # levers run on an older method stand beside that method's trials, not the default's
+    older = spec.ORDER[1]
+    lever = lever.assign(variant=[f"{older}+carry=held"] * 6 + [older] * 4)
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: lever if folder == spec.LEVERS else held)
+    assert spec.built_on(lever) == older and spec.built_on(lever.iloc[:0]) == spec.METHOD
+    mixed = pd.concat([chosen.assign(variant=older, finished_cleanly=False), chosen])
+    text = spec.levers_section(Drawn(), mixed.assign(cpu="A"))
+    assert f"Options on top of `{older}`" in text and f"`{older}`: completed" in text
+    assert "8 of 10 finished cleanly against 0 (+8)" in text
 
 
 def test_the_method_study_sets_a_lever_against_the_lever_it_builds_on() -> None:
@@ -583,8 +619,12 @@ def test_the_method_study_sets_the_doorknob_on_a_rough_slide_beside_the_authors_
     assert f"- on the slide with friction, `{spec.METHOD}` against `full`, finished cleanly: 2 of 3" in both
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough)
     summary = spec.rough_summary(spec.rough_frame(None))
-    assert (
-        "`grasp_release_ahead_acquire` completes the doorknob 2 of 3 and finishes 2 of 3 cleanly" in summary
+    assert f"`{spec.METHOD}` completes the doorknob 2 of 3 and finishes 2 of 3 cleanly" in summary
+    # the method the trials ran, named by them: not the default where they ran another
+    older = rough.assign(variant="grasp_release_ahead_acquire")
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: older)
+    assert "`grasp_release_ahead_acquire` completes the doorknob 2 of 3" in spec.rough_summary(
+        spec.rough_frame(None)
     )
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: rough.iloc[:2])
     summary = spec.rough_summary(spec.rough_frame(None))

@@ -122,9 +122,9 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
         == set(OLD_VARIANTS) | {"full", "no_contact", "joint_space", "replay", "robust"}
     )
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
-    # (wrist, wrist_clearance) or that are the project's methods (grasp_release and the two that add a
-    # group each to it: grasp_release_ahead, grasp_release_ahead_acquire)
-    assert len(VARIANTS) <= 10
+    # (wrist, wrist_clearance) or that are the project's methods (grasp_release and those that add groups
+    # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased)
+    assert len(VARIANTS) <= 11
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -279,9 +279,9 @@ def test_the_release_node_has_a_schema():
 @pytest.mark.parametrize("task", ["paper_apple", "paper_bottle", "paper_doorknob", "paper_stapler"])
 def test_a_paper_task_chooses_the_project_s_method_and_the_command_line_wins(task):
     choices = compose_config([f"task={task}"], return_hydra_config=True).hydra.runtime.choices
-    assert (choices.variant, choices.preset) == ("grasp_release_ahead_acquire", "paper_32samples_calibrated")
-    assert (choices.wrist, choices.shaping, choices.release) == ("acquire", "clearance", "flat")
-    assert (choices.compensation, choices.effort) == ("predict", "acquire")
+    assert (choices.variant, choices.preset) == ("grasp_held_eased", "paper_32samples_calibrated")
+    assert (choices.wrist, choices.shaping, choices.release) == ("acquire", "clearance", "eased")
+    assert (choices.compensation, choices.effort, choices.carry) == ("predict", "acquire", "held")
     cfg = compose_config([f"task={task}", "variant=full", "preset=paper"], return_hydra_config=True)
     assert (cfg.hydra.runtime.choices.variant, cfg.hydra.runtime.choices.preset) == ("full", "paper")
     assert (cfg.hydra.runtime.choices.shaping, cfg.hydra.runtime.choices.release) == ("none", "none")
@@ -328,6 +328,36 @@ def test_compensation_is_a_group_and_names_the_method_with_it():
     )
 
 
+def test_grasp_held_eased_is_the_method_with_the_carry_and_the_release_of_its_levers():
+    """variant=grasp_held_eased composes the trial of grasp_release_ahead_acquire with carry=held and
+    release=eased, and the trial the method study's lever ran as overrides (carry=held
+    sampler.release.noise=1.0 sampler.release.blend=1.0); its records are named by it, the lever's by the
+    method it is on."""
+
+    def trial(*overrides):
+        cfg = compose_config(["task=paper_apple", *overrides], return_hydra_config=True)
+        choices = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS}
+        cfg = OmegaConf.to_container(cfg, resolve=False)
+        cfg.pop("hydra")
+        return cfg, choices
+
+    named, choices = trial("variant=grasp_held_eased")
+    assert trial()[0] == named  # the paper tasks' default
+    groups, _ = trial("variant=grasp_release_ahead_acquire", "carry=held", "release=eased")
+    lever, lever_choices = trial(
+        "variant=grasp_release_ahead_acquire",
+        "carry=held",
+        "sampler.release.noise=1.0",
+        "sampler.release.blend=1.0",
+    )
+    assert named == groups == lever
+    assert labels.method_name({"variant": "grasp_held_eased", **choices}) == "grasp_held_eased"
+    assert (
+        labels.method_name({"variant": "grasp_release_ahead_acquire", **lever_choices})
+        == "grasp_release_ahead_acquire+carry=held"
+    )
+
+
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
     """place=wrist sets the release schedule's window to the 3 s before the last expected contact (off by
     default: none composes the config of before); the record labels it and the method is named with it;
@@ -344,10 +374,8 @@ def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
     rest.pop("hydra")
     rest["sampler"]["release"]["window"] = None
     assert rest == OmegaConf.to_container(off, resolve=False)  # the window is all it changes
-    found = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS} | {
-        "variant": "grasp_release_ahead_acquire"
-    }
-    assert labels.method_name(found) == "grasp_release_ahead_acquire+place=wrist"
+    found = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS} | {"variant": "grasp_held_eased"}
+    assert labels.method_name(found) == "grasp_held_eased+place=wrist"
     assert labels.method_labels({"variant": "grasp_release_ahead_acquire+place=wrist"})["place"] == "wrist"
     bare = compose_config(["task=apple", "place=wrist"])
     with pytest.raises(ConfigError, match="no release schedule is selected.*release=scheduled"):

@@ -1,6 +1,7 @@
 """The project's method for the paper's four tasks (issue 33): the method the paper tasks select by default
-(``variant=grasp_release_ahead`` or ``grasp_release``) at the calibrated latency, ten seeds a task, beside
-the project's other method and the paper's full method on the same seeds at the same point."""
+(``variant=grasp_held_eased``; before it ``grasp_release_ahead_acquire``, ``grasp_release_ahead`` and
+``grasp_release``) at the calibrated latency, ten seeds a task, beside the steps it is built from and the
+paper's full method on the same seeds at the same point."""
 
 from __future__ import annotations
 
@@ -25,14 +26,16 @@ from analysis.timeline import timeline
 from contactmpc.labels import GROUPS, method_name
 
 QUESTION = (
-    "Does one named method (the paper tasks' default: grasp_release_ahead, or before it grasp_release) "
+    "Does one named method (the paper tasks' default: grasp_held_eased, or before it one of the steps it "
+    "is built from) "
     "complete all four of the paper's tasks, at least 9 of 10 seeds each and at least 8 of 10 finished "
     "cleanly, at the paper point's calibrated latency, and how does it compare with the paper's full "
     "method on the same seeds?"
 )
-TITLE = "The method: grasp_release(_ahead) on the paper's four tasks"
+TITLE = "The method: one method for the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
+    "python launch.py experiment=method variant=grasp_held_eased hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_release_ahead effort=acquire "
     "hydra.sweep.dir=studies/method/records  # = variant=grasp_release_ahead_acquire",
     *(
@@ -44,7 +47,7 @@ EXPERIMENTS = [
 HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
-ORDER = ("grasp_release_ahead_acquire", "grasp_release_ahead", "grasp_release", "full")
+ORDER = ("grasp_held_eased", "grasp_release_ahead_acquire", "grasp_release_ahead", "grasp_release", "full")
 BASELINE = "full"
 #: The issue's target per task: at least this many of TARGET_SEEDS seeds completed, and finished cleanly.
 TARGET_SEEDS, TARGET_COMPLETED, TARGET_CLEAN = 10, 9, 8
@@ -54,13 +57,19 @@ ALPHA = 0.05
 # ------------------------------------------------------------------------------------------- the plan
 
 
-def variants() -> list[str]:
-    """The methods run.sh runs, in its order (``${VARIANTS:-a b}``), named as the analysis names them
-    (``grasp_release_ahead+effort=acquire`` is ``grasp_release_ahead_acquire``); else :data:`ORDER`."""
+def run_names() -> dict[str, str]:
+    """The methods run.sh runs, in its order (``${VARIANTS:-a b}``), each as the analysis names it
+    (``grasp_release_ahead_acquire``) to the name run.sh gives it (``grasp_release_ahead+effort=acquire``);
+    else :data:`ORDER`'s, each its own."""
     m = re.search(r"\$\{VARIANTS:-([^}]*)\}", (HERE / "run.sh").read_text())
     if not m:
-        return list(ORDER)
-    return [method_name({"variant": method}) for method in m[1].split()]
+        return {v: v for v in ORDER}
+    return {method_name({"variant": method}): method for method in m[1].split()}
+
+
+def variants() -> list[str]:
+    """The methods run.sh runs, in its order, named as the analysis names them (:func:`run_names`)."""
+    return list(run_names())
 
 
 def plan() -> tuple[list[str], list[int]]:
@@ -540,42 +549,56 @@ HELDOUT_SEEDS = "10-19"
 
 
 def heldout(study, chosen: pd.DataFrame) -> str:
-    """The method on the seeds it was not chosen on (:data:`HELDOUT`), per task beside its trials on the
-    seeds it was chosen on (``chosen``: the sweep's), with the difference in completion and in finishing
-    cleanly and Barnard's test."""
-    head = (
-        f"`{METHOD}`'s groups were chosen on the sweep's seeds, so its counts there are optimistic. Its "
-        f"trials on seeds {HELDOUT_SEEDS}, which chose nothing, are kept apart in `{HELDOUT}/` "
-        f'(`VARIANTS="grasp_release_ahead+effort=acquire" SEEDS="$(seq -s " " 10 19)" '
-        f"OUT=studies/method/{HELDOUT} bash studies/method/run.sh`, seeds varying slowest).\n\n"
-    )
+    """Each method's trials on the seeds it was not chosen on (:data:`HELDOUT`), per method (of
+    :data:`ORDER`) and task beside its trials on the seeds it was chosen on (``chosen``: the sweep's), with
+    the difference in completion and in finishing cleanly and Barnard's test; a line where :data:`METHOD`
+    has none yet."""
+    names = run_names()
     df = frame(study, HELDOUT)
     ok = df[df["counted"] & df["task"].isin(plan()[0])] if len(df) else df  # (not the sweep's seeds)
-    if not len(ok):
+    methods = [m for m in ORDER if len(ok) and (ok["variant"] == m).any()]
+    runs = " and ".join(
+        f'`VARIANTS="{names.get(m, m)}" SEEDS="$(seq -s " " 10 19)" OUT=studies/method/{HELDOUT} '
+        "bash studies/method/run.sh`"
+        for m in methods or [METHOD]
+    )
+    head = (
+        "A method's groups were chosen on the sweep's seeds, so its counts there are optimistic. Its trials "
+        f"on seeds {HELDOUT_SEEDS}, which chose nothing, are kept apart in `{HELDOUT}/` ({runs}, seeds "
+        "varying slowest).\n\n"
+    )
+    if METHOD not in methods:
+        head += (
+            f"`{METHOD}` has no trial on these seeds yet (its levers' trials on them, run before it was "
+            "named, are in the levers' table: *Levers on the method, full trials*)"
+            + (": the rows below are of " + codes(methods) + ".\n\n" if methods else ".\n\n")
+        )
+    if not methods:
         return head + "No such trial is kept yet.\n"
     base = counted(chosen)
     rows, lines = [], []
-    for task in plan()[0]:
-        h, c = cell(ok, task, METHOD), cell(base, task, METHOD)
-        if not len(h):
-            continue
-        hk, hc, ck, cc = (int(g[col].sum()) for g in (h, c) for col in ("completed", "finished_cleanly"))
-        rows.append(
-            f"| {task} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} | {of(ck, len(c))} "
-            f"| {of(cc, len(c))} |"
-        )
-        if len(c):
-            for what, a, b in (("completed", hk, ck), ("finished cleanly", hc, cc)):
-                d, lo, hi = newcombe(a, len(h), b, len(c))
-                p, floor = completion_test(a, len(h), b, len(c))
-                lines.append(
-                    f"- {task}, {what}: {of(a, len(h))} held out against {of(b, len(c))}, "
-                    f"{100 * d:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}], Barnard p = {Fmt.p(p)} "
-                    f"(at best {Fmt.p(floor)} at these counts)"
-                )
-    cols = ("task", "held-out seeds", "completed", "finished cleanly", "on the sweep's seeds: completed",
-            "finished cleanly")  # fmt: skip
-    return head + pipe_table(cols, "llrrrr", rows) + "\n" + ";\n".join(lines) + (".\n" if lines else "")
+    for method in methods:
+        for task in plan()[0]:
+            h, c = cell(ok, task, method), cell(base, task, method)
+            if not len(h):
+                continue
+            hk, hc, ck, cc = (int(g[col].sum()) for g in (h, c) for col in ("completed", "finished_cleanly"))
+            rows.append(
+                f"| `{method}` | {task} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
+                f"| {of(ck, len(c))} | {of(cc, len(c))} |"
+            )
+            if len(c):
+                for what, a, b in (("completed", hk, ck), ("finished cleanly", hc, cc)):
+                    d, lo, hi = newcombe(a, len(h), b, len(c))
+                    p, floor = completion_test(a, len(h), b, len(c))
+                    lines.append(
+                        f"- `{method}`, {task}, {what}: {of(a, len(h))} held out against {of(b, len(c))}, "
+                        f"{100 * d:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}], Barnard p = {Fmt.p(p)} "
+                        f"(at best {Fmt.p(floor)} at these counts)"
+                    )
+    cols = ("method", "task", "held-out seeds", "completed", "finished cleanly",
+            "on the sweep's seeds: completed", "finished cleanly")  # fmt: skip
+    return head + pipe_table(cols, "lllrrrr", rows) + "\n" + ";\n".join(lines) + (".\n" if lines else "")
 
 
 LEVERS = "levers"
@@ -602,6 +625,17 @@ LEVER_TEXT = {
     "so the plans choose how the hand lets go by the object's tracking cost after it",
     "sampler.release.open=2.5": "the fingers open over 2.5 s (`sampler.release.open`; the method's 1 s)",
 }
+
+
+def built_on(df: pd.DataFrame) -> str:
+    """The method the trials ``df`` ran on top of: of the methods their names start with
+    (``grasp_release_ahead_acquire`` of ``grasp_release_ahead_acquire+carry=held``), the most common
+    (ties: the first in :data:`ORDER`); :data:`METHOD` without any trial."""
+    if not len(df) or "variant" not in df:
+        return METHOD
+    counts = df["variant"].dropna().astype(str).str.split("+").str[0].value_counts()
+    rank = {m: i for i, m in enumerate(ORDER)}
+    return min(counts.index, key=lambda m: (-counts[m], rank.get(m, len(rank)), m)) if len(counts) else METHOD
 
 
 def lever_of(record_path) -> str:
@@ -634,10 +668,10 @@ def _lever_text(lever: str) -> str:
     return "; ".join(out) + "."
 
 
-def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int]]) -> None:
-    """Per task, each lever's trials finished cleanly (solid) and completed (pale) beside the method's on the
-    same seeds (grey): ``rows`` of ``(task, lever, n, completed, clean, method's completed, method's
-    clean)``."""
+def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int]], on: str = METHOD) -> None:
+    """Per task, each lever's trials finished cleanly (solid) and completed (pale) beside those of the method
+    they are on (``on``) on the same seeds (grey): ``rows`` of ``(task, lever, n, completed, clean, method's
+    completed, method's clean)``."""
     import matplotlib.pyplot as plt
 
     tasks = list(dict.fromkeys(r[0] for r in rows))
@@ -661,7 +695,7 @@ def levers_figure(path: Path, rows: list[tuple[str, str, int, int, int, int, int
         ax.set_xlim(-0.6, max(len(mine), 3) - 0.4)  # a task with one lever keeps narrow bars
     axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
     fig.suptitle(
-        f"each lever (colour) beside {METHOD} on the same seeds (grey); clean/completed/seeds", fontsize=8
+        f"each lever (colour) beside {on} on the same seeds (grey); clean/completed/seeds", fontsize=8
     )
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -710,20 +744,22 @@ def stacked(ok: pd.DataFrame) -> str:
 
 
 def levers_section(study, chosen: pd.DataFrame) -> str:
-    """Each lever on top of the method (:data:`LEVERS`) against the method's own trials on the same seeds,
-    per task: the counts, Barnard's test on finishing cleanly, the CPU-s ratio; a figure of the counts."""
-    head = (
-        f"Options on top of `{METHOD}` run as full trials on the sweep's seeds (stapler first, the task "
-        f"furthest from the target, then the bottle and the apple; seeds vary fastest), kept in `{LEVERS}/` "
-        f"(`{LEVERS_RUN}`), each against `{METHOD}`'s own trials on the same seeds (on seeds "
-        f"{HELDOUT_SEEDS}, its held-out trials: *On seeds it was not chosen on*).\n\n"
-    )
+    """Each lever on top of a method (:data:`LEVERS`; the method they ran on, :func:`built_on`) against that
+    method's own trials on the same seeds, per task: the counts, Barnard's test on finishing cleanly, the
+    CPU-s ratio; a figure of the counts."""
     ok = lever_frame(study)
+    on = built_on(ok)
+    head = (
+        f"Options on top of `{on}` (the paper tasks' default when they ran) run as full trials on the "
+        "sweep's seeds (stapler first, the task furthest from the target, then the bottle and the apple; "
+        f"seeds vary fastest), kept in `{LEVERS}/` (`{LEVERS_RUN}`), each against `{on}`'s own trials on the "
+        f"same seeds (on seeds {HELDOUT_SEEDS}, its held-out trials: *On seeds it was not chosen on*).\n\n"
+    )
     if not len(ok):
         return head + "No such trial is kept yet.\n"
     held = frame(study, HELDOUT)  # the method's own trials on the held-out seeds
     base = pd.concat([counted(chosen), held[held["counted"]] if len(held) else held])
-    base = base[base["variant"] == METHOD] if len(base) else base
+    base = base[base["variant"] == on] if len(base) else base
     rows, fig_rows = [], []
     # each override once, also where several levers combine it (carry=pose, carry=pose pacing=release)
     notes = [f"- {_lever_text(part)}" for part in sorted({p for lever in ok["lever"] for p in lever.split()})]
@@ -806,13 +842,13 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         if apart
         else ""
     )
-    cols = ("lever", "task", "seeds", "completed", "finished cleanly", f"`{METHOD}`: completed",
+    cols = ("lever", "task", "seeds", "completed", "finished cleanly", f"`{on}`: completed",
             "finished cleanly", "Barnard p (clean)", "clean only with the lever", "clean only without",
             "object error over the span, mm: lever / method", "final", "CPU-s, x the method's")  # fmt: skip
     link = (
         study.draw(
             "levers.png",
-            lambda path: levers_figure(path, fig_rows),
+            lambda path: levers_figure(path, fig_rows, on),
             "the levers on the method: trials finished cleanly and completed, per task",
         )
         if fig_rows
@@ -1137,10 +1173,11 @@ def rough_slide(ok: pd.DataFrame, chosen: pd.DataFrame, study=None) -> str:
     )
     if not len(ok):
         return head + "No such trial is kept yet.\n"
-    base = cell(counted(chosen), "doorknob", METHOD).set_index("seed")
+    on = rough_method(ok)
+    base = cell(counted(chosen), "doorknob", on).set_index("seed")
     ended = lambda r: "clean" if r["finished_cleanly"] else "done" if r["completed"] else "failed"  # noqa: E731
     rows = []
-    g = cell(ok, "doorknob", METHOD)
+    g = cell(ok, "doorknob", on)
     for r in g.to_dict("records"):
         b = base.loc[r["seed"]] if r["seed"] in base.index else None
         theirs = ("", "") if b is None else (ended(b), f"{1e3 * b['_final']:.0f}")
@@ -1164,11 +1201,11 @@ def rough_slide(ok: pd.DataFrame, chosen: pd.DataFrame, study=None) -> str:
             )  # fmt: skip
         ]
         lines += [
-            f"- on the slide with friction, `{METHOD}` against `{BASELINE}`, " + line[2:]
-            for line in _against(g[g["seed"].isin(paper["seed"])], paper, f"`{METHOD}`", f"`{BASELINE}`")
+            f"- on the slide with friction, `{on}` against `{BASELINE}`, " + line[2:]
+            for line in _against(g[g["seed"].isin(paper["seed"])], paper, f"`{on}`", f"`{BASELINE}`")
         ]
-    cols = ("seed", "slide friction (N)", "ended", "final error (mm)", "on the authors' slide: ended",
-            "final error (mm)")  # fmt: skip
+    cols = ("seed", "slide friction (N)", f"`{on}`: ended", "final error (mm)",
+            "on the authors' slide: ended", "final error (mm)")  # fmt: skip
     link = None
     if study is not None:
         paths = [Path(p).parent / "timeseries.npz" for p in g["record_path"]]
@@ -1207,21 +1244,28 @@ def _against(a: pd.DataFrame, b: pd.DataFrame, name_a: str, name_b: str) -> list
     return lines
 
 
+def rough_method(ok: pd.DataFrame) -> str:
+    """The project's method the doorknob trials on a slide with friction (``ok``: :func:`rough_frame`) ran
+    (:func:`built_on` of those not of the paper's method)."""
+    return built_on(ok[ok["variant"] != BASELINE] if len(ok) else ok)
+
+
 def rough_summary(ok: pd.DataFrame) -> str:
-    """One sentence for the findings: how the method's doorknob trials on a slide with friction
+    """One sentence for the findings: how the project's method's doorknob trials on a slide with friction
     (``ok``: :func:`rough_frame`) ended; ``""`` without any."""
-    g = cell(ok, "doorknob", METHOD) if len(ok) else ok
+    on = rough_method(ok)
+    g = cell(ok, "doorknob", on) if len(ok) else ok
     if not len(g):
         return ""
     friction = _frictions(g)
     k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
     return (
         f"\nThe doorknob's shortfall is the authors' frictionless slide: on a slide with {friction} N of dry "
-        f"friction (not the authors' model; *The doorknob on a slide with friction*) `{METHOD}` completes "
+        f"friction (not the authors' model; *The doorknob on a slide with friction*) `{on}` completes "
         f"{of(k, n)} and finishes {of(c, n)} cleanly on seeds {seeds(g['seed'])}.\n"
         if c == n
         else f"\nOn a slide with {friction} N of dry friction (not the authors' model; *The doorknob on a "
-        f"slide with friction*) `{METHOD}` completes the doorknob {of(k, n)} and finishes {of(c, n)} "
+        f"slide with friction*) `{on}` completes the doorknob {of(k, n)} and finishes {of(c, n)} "
         f"cleanly on seeds {seeds(g['seed'])}.\n"
     )
 
@@ -1303,7 +1347,8 @@ def _seeds(values) -> str:
 def after_span_figure(path: Path, task: str, trials: pd.DataFrame, kind: str) -> None:
     """The object error over time, from 5 s before the end of the contact span (where the hand lets go)
     to the trial's end, one line per trial (``trials``: rows with ``record_path``, ``seed``,
-    ``contact_span_end``, ``finished_cleanly``): grey, finished cleanly; coloured, not."""
+    ``contact_span_end``, ``finished_cleanly``; the method they ran, :func:`built_on`): grey, finished
+    cleanly; coloured, not."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -1323,7 +1368,7 @@ def after_span_figure(path: Path, task: str, trials: pd.DataFrame, kind: str) ->
     ax.set_xlabel("time from the end of the contact span (s)")
     unit = "mm" if kind == "position" else "x 1e-3 (m on the slide)"
     ax.set_ylabel(f"object error ({unit})")
-    ax.set_title(f"{task}, {METHOD}: the object after the hand lets go", fontsize=10)
+    ax.set_title(f"{task}, {built_on(trials)}: the object after the hand lets go", fontsize=10)
     ax.legend(fontsize=7, ncol=2, frameon=False)
     fig.savefig(path, dpi=110)
 
@@ -1476,8 +1521,10 @@ def release_replays(table: pd.DataFrame) -> str:
             medians[name] = (float(np.median(v)), int((v <= b).sum()), len(off))
             where += f", at {median(v)} mm/s (median; {span(v)}), under the bound on {under}"
         parts.append(f"*{name}*: {where}")
+    methods = sorted({m for m in map(_run_method, table.get("record", [])) if m})
+    whose = f" of {codes(methods)}" if methods else ""
     return (
-        f"  Replayed from each trial's state {table['before'].iloc[0]:g} s before the span ends,"
+        f"  Replayed from the state of each trial{whose} {table['before'].iloc[0]:g} s before the span ends,"
         " each release open-loop "
         "(`python studies/method/release_replay.py`; velocities zeroed, so a replay is near its trial, not "
         f"it; the {len(faithful)} trials whose replayed own release let go after the span's end): "
@@ -1486,6 +1533,13 @@ def release_replays(table: pd.DataFrame) -> str:
         + _slowest(medians)
         + _rough(rough[rough["seed"].isin(faithful)])
     )
+
+
+def _run_method(run: str) -> str | None:
+    """The method of a run folder's name (``effort=acquire,experiment=method,...,variant=grasp_release_ahead``
+    is ``grasp_release_ahead_acquire``), ``None`` for a name without a variant."""
+    labels = dict(part.split("=", 1) for part in str(run).split(",") if "=" in part)
+    return method_name(labels) if labels.get("variant") else None
 
 
 def _rough(table: pd.DataFrame) -> str:
@@ -1598,14 +1652,16 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
 
 
 def latency_section(study, df: pd.DataFrame) -> str:
-    """Simulated trials of the method at another latency than the calibrated one
+    """Simulated trials of a method at another latency than the calibrated one
     (``latency/<run>/trial.json``, made by ``run_latency.sh``): per task and seed, completed / finished
-    cleanly at each latency, beside the same seed's trial at the calibrated latency (the study's records)."""
+    cleanly at each latency, beside the same method's trial of the same seed at the calibrated latency (the
+    study's records)."""
     records = kept(study, "latency")
+    ran = list(dict.fromkeys(method_name(r) or METHOD for r in records)) or [METHOD]
     head = (
-        "The method's trials at the calibrated latency beside the same seeds with each plan applied sooner "
-        "(`planner.latency`), plans still started every 170 ms (`planner.replan_period=0.17`) or as often as "
-        "the latency allows (`EVERY=`), as a faster machine would apply them; "
+        f"{codes(ran)}'s trials at the calibrated latency beside the same seeds with each plan applied "
+        "sooner (`planner.latency`), plans still started every 170 ms (`planner.replan_period=0.17`) or as "
+        "often as the latency allows (`EVERY=`), as a faster machine would apply them; "
         "`bash studies/method/run_latency.sh`. An online run on a machine that "
         "plans faster than the calibrated latency is such a trial, in wall-clock time. *Approach reset*: "
         "the lever `planner.approach_reset` on top of the method (`EXTRA=`): that many seconds before the "
@@ -1617,9 +1673,9 @@ def latency_section(study, df: pd.DataFrame) -> str:
     ok = counted(df)
     calibrated = 1e3 * (planned_latency() or math.nan)
 
-    def at_calibrated(task: str, seeds: list) -> pd.DataFrame:
-        """The method's trials at the calibrated latency on ``task`` and ``seeds``."""
-        g = cell(ok, task, METHOD) if len(ok) else ok
+    def at_calibrated(task: str, seeds: list, method: str) -> pd.DataFrame:
+        """``method``'s trials at the calibrated latency on ``task`` and ``seeds``."""
+        g = cell(ok, task, method) if len(ok) else ok
         return g[g["seed"].isin(seeds)] if len(g) else g
 
     def yes_no(completed, clean) -> str:
@@ -1633,7 +1689,7 @@ def latency_section(study, df: pd.DataFrame) -> str:
     order = lambda r: (r.get("task", ""), r.get("latency") or 0, approach(r) or 0, r.get("seed") or 0)  # noqa: E731
     for r in sorted(records, key=order):
         task = r.get("task", "").removeprefix("paper_")
-        base = at_calibrated(task, [r.get("seed")])
+        base = at_calibrated(task, [r.get("seed")], method_name(r) or METHOD)
         at = yes_no(base["completed"].iloc[0], base["finished_cleanly"].iloc[0]) if len(base) else "—"
         rows.append(
             f"| {task} | {r.get('seed')} | {1e3 * (r.get('latency') or 0):.0f} "
@@ -1647,11 +1703,17 @@ def latency_section(study, df: pd.DataFrame) -> str:
         f"at {calibrated:.0f} ms: completed / clean",
     )  # fmt: skip
     lines = []
-    condition = lambda r: (r.get("task"), r.get("latency"), r.get("replan_interval"), approach(r) or 0.0)  # noqa: E731
-    for task, latency, every, reset in sorted({condition(r) for r in records}):
-        group = [r for r in records if condition(r) == (task, latency, every, reset)]
+    condition = lambda r: (  # noqa: E731
+        r.get("task"),
+        method_name(r) or METHOD,
+        r.get("latency"),
+        r.get("replan_interval"),
+        approach(r) or 0.0,
+    )
+    for task, method, latency, every, reset in sorted({condition(r) for r in records}):
+        group = [r for r in records if condition(r) == (task, method, latency, every, reset)]
         name = str(task).removeprefix("paper_")
-        base = at_calibrated(name, [r.get("seed") for r in group])
+        base = at_calibrated(name, [r.get("seed") for r in group], method)
         done = sum(bool(r.get("completed")) for r in group)
         p = (
             completion_test(done, len(group), int(base["completed"].sum()), len(base))[0]
@@ -1659,7 +1721,8 @@ def latency_section(study, df: pd.DataFrame) -> str:
             else None
         )
         lines.append(
-            f"- {name}, {1e3 * (latency or 0):.0f} ms, a plan every {1e3 * (every or 0):.0f} ms"
+            f"- {name}" + (f", `{method}`" if len(ran) > 1 else "") + f", {1e3 * (latency or 0):.0f} ms, "
+            f"a plan every {1e3 * (every or 0):.0f} ms"
             + (
                 f", the approach reset {reset:g} s before the first contact (`planner.approach_reset`)"
                 if reset
@@ -1682,21 +1745,23 @@ def latency_section(study, df: pd.DataFrame) -> str:
 
 
 def held_online(study) -> str:
-    """Online runs of the method held to the calibrated latency (``job.apply_after``, kept under
-    ``online/``) beside its runs at the same slowdown that were not: whether the simulated trial's fixed
-    latency is what the method lacks online, as a line per task and slowdown."""
+    """Online runs of a method held to the calibrated latency (``job.apply_after``, kept under ``online/``)
+    beside the same method's runs at the same slowdown that were not: whether the simulated trial's fixed
+    latency is what the method lacks online, as a line per task, method and slowdown."""
     calibrated = planned_latency()
-    runs = [r for r in kept(study, "online") if method_name(r) == METHOD]
+    runs = kept(study, "online")
     held = [r for r in runs if calibrated and abs((r.get("apply_after") or 0.0) - calibrated) < 1e-9]
     lines = []
-    for task, slowdown in sorted({(r.get("task", ""), r.get("slowdown")) for r in held}):
-        same = [r for r in runs if (r.get("task"), r.get("slowdown")) == (task, slowdown)]
+    key = lambda r: (r.get("task", ""), method_name(r) or "", r.get("slowdown"))  # noqa: E731
+    for task, method, slowdown in sorted({key(r) for r in held}):
+        same = [r for r in runs if key(r) == (task, method, slowdown)]
         group = [r for r in same if r in held]
         free = [r for r in same if not (r.get("apply_after") or r.get("min_interval"))]
         count = lambda rs: f"{of(sum(bool(r.get('completed')) for r in rs), len(rs))} completed"  # noqa: E731
         ms = f"{1e3 * calibrated:.0f} ms"
         lines.append(
-            f"- online, {task.removeprefix('paper_')} at slowdown {Fmt.num(slowdown, 0)}, each plan held to "
+            f"- online, {task.removeprefix('paper_')}, `{method}` at slowdown {Fmt.num(slowdown, 0)}, each "
+            "plan held to "
             f"act {ms} after its state and paced to one every {ms} (`job.apply_after`, `job.min_interval`: "
             f"the simulated trial's timing): {count(group)}; continuous replanning at the same slowdown: "
             + (count(free) if free else "not run")
