@@ -506,6 +506,40 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
     assert "8 of 10 finished cleanly against 0 (+8)" in text
 
 
+def test_the_method_study_finds_the_method_s_trials_a_lever_ran_before_it_was_named(
+    monkeypatch, tmp_path
+) -> None:
+    """reproduced: a trial of the method and a lever's with the same resolved config (the output folder
+    aside) on the same processor are one trial, and the two records are compared; another config, or
+    another processor, is not matched."""
+    import json
+
+    import pandas as pd
+
+    spec = Study("method").spec
+
+    def record(name, seed, cpu="A", ttf=1.0, out="x"):
+        path = tmp_path / name / "trial.json"
+        path.parent.mkdir(parents=True)
+        config = {"seed": seed, "planner": {"num_samples": 32}, "output_dir": f"/{out}/{name}"}
+        path.write_text(json.dumps({"config": config, "cpu": cpu, "ttf": ttf, "completed": True}))
+        return str(path)
+
+    mine = [record("m0", 0, out="y"), record("m1", 1, out="y"), record("m2", 2, out="y"), record("m3", 3)]
+    levers = [record("carry=held,seed=0,task=paper_apple", 0), record("carry=held,seed=1,task=paper_apple", 1,
+              ttf=0.5), record("carry=held,seed=2,task=paper_apple", 2, cpu="B")]  # fmt: skip
+    frame = lambda paths, variant: pd.DataFrame({  # noqa: E731
+        "task": "apple", "variant": variant, "seed": range(len(paths)), "counted": True, "record_path": paths,
+        "completed": True, "finished_cleanly": False})  # fmt: skip
+    monkeypatch.setattr(
+        spec, "frame", lambda study, folder=None: frame(levers, spec.ORDER[1] + "+carry=held")
+    )
+    text = spec.reproduced(None, frame(mine, spec.METHOD))
+    assert f"Of `{spec.METHOD}`'s 4 trials, 2 ran the same resolved config on the same processor" in text
+    assert "(`carry=held`); the two records agree" in text and "on 1 of 2." in text
+    assert spec.reproduced(None, frame(mine, spec.ORDER[1])) == ""  # no trial of the method
+
+
 def test_the_method_study_sets_a_lever_against_the_lever_it_builds_on() -> None:
     """stacked: a lever whose overrides contain another's stands against it on the seeds both ran, per
     task and in all; levers that do not build on one another, none."""

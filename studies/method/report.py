@@ -1816,6 +1816,50 @@ def findings(df: pd.DataFrame) -> str:
     return head + tail + "\n\n" + "\n".join(out) + "\n"
 
 
+#: What two records of one trial must hold alike to count as the same record (:func:`reproduced`).
+SAME_RECORD = ("completed", "finished_cleanly", "ttf", "final_object_position_error",
+               "final_object_rotation_error", "final_object_articulation_error")  # fmt: skip
+
+
+def _trial_key(path) -> str | None:
+    """A record's resolved config (its output folder left out) and processor, as one string: two records
+    with the same key ran the same trial on the same processor; ``None`` for a record without a config."""
+    record = json.loads(Path(path).read_text())
+    config = dict(record.get("config") or {})
+    config.pop("output_dir", None)
+    return json.dumps([config, record.get("cpu")], sort_keys=True) if config else None
+
+
+def reproduced(study, df: pd.DataFrame) -> str:
+    """Of :data:`METHOD`'s trials, those a lever (:data:`LEVERS`) ran before the method was named with the
+    same resolved config on the same processor, and on how many the two records agree (:data:`SAME_RECORD`),
+    as a sentence; ``""`` where there are none."""
+    mine = counted(df)
+    mine = mine[mine["variant"] == METHOD] if len(mine) else mine
+    levers = lever_frame(study)
+    if not len(mine) or not len(levers):
+        return ""
+    by_key = {}
+    for path, lever in zip(levers["record_path"], levers["lever"], strict=True):
+        if (key := _trial_key(path)) is not None:
+            by_key.setdefault(key, (path, lever))
+    same, names, n = 0, set(), 0
+    for path in mine["record_path"]:
+        if (found := by_key.get(_trial_key(path))) is None:
+            continue
+        n += 1
+        names.add(found[1])
+        a, b = (json.loads(Path(p).read_text()) for p in (path, found[0]))
+        same += all(a.get(k) == b.get(k) for k in SAME_RECORD)
+    if not n:
+        return ""
+    return (
+        f"\nOf `{METHOD}`'s {len(mine)} trials, {n} ran the same resolved config on the same processor as a "
+        f"lever trial kept in `{LEVERS}/` before the method was named ({codes(sorted(names))}); the two "
+        f"records agree (completion, finishing cleanly, TTF and the final errors) on {of(same, n)}.\n"
+    )
+
+
 def levers_target(study) -> str:
     """Which levers meet the issue's target (:func:`target`) on which task, on the sweep's seeds, counted only
     where a lever ran all of them; the tasks on which none does."""
@@ -1863,6 +1907,7 @@ def report(study) -> str:
         + missing(df)
         + "\n## What the records show\n\n"
         + findings(df)
+        + reproduced(study, df)
         + levers_target(study)
         + rough_summary(rough)
         + f"\n*The seeds are not held out*: `{METHOD}`'s groups were chosen by what they did on these "
