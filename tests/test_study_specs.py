@@ -292,9 +292,12 @@ def test_the_method_screen_sets_the_method_at_two_latencies_beside_its_full_tria
                          "completed": lifted, "status": "ok", "ttf": 1.0, "cpu_seconds": 100.0})  # fmt: skip
     rows += [{"where": "full", "latency_ms": 60, "seed": s, "lifted": s < 6, "completed": s < 6,
               "status": "ok", "ttf": 1.0, "cpu_seconds": 300.0} for s in range(10)]  # fmt: skip
-    df = pd.DataFrame(rows)
+    df = pd.DataFrame(rows).assign(task="paper_stapler")
     df["half"] = [spec.HALVES[0] if s in spec.CHOSEN_ON else spec.HALVES[1] for s in df["seed"]]
     text = spec.method_section(df)
+    assert (
+        spec.method_section(pd.concat([df, df.assign(task="paper_apple", lifted=False)])) == text
+    )  # stapler
     assert "| screen | 60 | 2 | 1/2 | 1/2 | 1.00 | 100 | 10 and 11 |" in text
     assert "- 60 ms, the screen (every seed) against the full trials: lifted 6 of 12 against 6 of 10" in text
     assert (
@@ -367,6 +370,15 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert text.endswith("more often than the method on the same seeds (Barnard p < 0.05): none.\n")
     assert "`until3`: the grasp's phase" in text and "`contact3`" not in text  # only the levers it shows
     assert spec.method_levers_section(levers.iloc[:0], method) == ""
+    # the apple's screen (SET=method_lift TASKS=paper_apple): its own rows and comparison, per task
+    apple = lambda df: df.assign(task="paper_apple")  # noqa: E731
+    method = pd.concat([method, apple(method).assign(lifted=False, completed=False)])
+    levers = pd.concat([levers, apple(levers)])
+    text = spec.method_levers_section(levers, method)
+    assert f"| {spec.METHOD} until3 | paper_apple | 4 | 4/4 | 4/4 |" in text
+    assert "- paper_apple, `until3` against the method, seeds 0-3: lifted 4 of 4 against 0 of 4" in text
+    assert "- paper_stapler, `until3` against the method, seeds 0-3: lifted 4 of 4 against 3 of 4" in text
+    assert text.endswith("(Barnard p < 0.05): `until3` (apple).\n")  # 4 of 4 against 0 of 4
 
 
 def test_the_method_study_reads_the_replayed_releases_over_the_replays_near_their_trials() -> None:

@@ -46,6 +46,10 @@ CALIBRATED_MS = round(
 )
 SCRIPT = HERE / "run_screen.sh"
 TASKS = ("paper_stapler", "paper_bottle")
+#: The tasks the method and the levers on top of it are screened on (``SET=method``, ``method_levers``, ...;
+#: ``TASKS=paper_apple``): the stapler, the task furthest from the target, then the apple, whose lift the
+#: method loses.
+METHOD_TASKS = ("paper_stapler", "paper_apple")
 BASELINES = ("full", "wrist_clearance")
 #: Pairs whose order in the screen is checked against full trials: the clearance term against the paper's
 #: method, and the clearance variant at the paper point's 128 samples against 32.
@@ -179,7 +183,8 @@ STATS = [
 
 
 def table(df: pd.DataFrame, order: list[str]) -> str:
-    t = summarize(df, by=["lever", "task"], stats=STATS, order={"lever": order, "task": list(TASKS)})
+    tasks = list(dict.fromkeys(TASKS + METHOD_TASKS))
+    t = summarize(df, by=["lever", "task"], stats=STATS, order={"lever": order, "task": tasks})
     t["seeds"] = [
         seeds(df[(df["lever"] == a) & (df["task"] == b)]["seed"])
         for a, b in zip(t["lever"], t["task"], strict=True)
@@ -440,7 +445,7 @@ METHOD_LEVER_KEYS = (
 METHOD_LEVER_TEXT = {
     "until": "`until3`: the grasp's phase (the wrist sampled, 128 samples a plan) held to 3 s after the "
     "first expected contact instead of 2 s (`planner.acquire_until=3.0 sampler.root_window=[-1.0,3.0]`: the "
-    "reference starts lifting the stapler 1.4-1.7 s after its first contact)",
+    "reference starts lifting the stapler 1.4-1.7 s after its first contact, the apple 1.9 s after it)",
     "wristvar": "`wristvar0.0004`: the wrist's sampling variance on its slides four times the method's "
     "(`sampler.root_sigma2=4.0e-4`: 2 cm instead of 1)",
     "wristrot": "`wristrot0.0025`: the wrist's rotation sampled with a quarter of the method's variance "
@@ -472,8 +477,8 @@ def method_lever(row: dict) -> str:
 
 
 def method_frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The method's stapler trials at plans every 170 ms (the calibrated loop): its screen trials
-    (``SET=method``) and the method study's full trials (its records and its ``latency/`` runs), with
+    """The method's trials on :data:`METHOD_TASKS` at plans every 170 ms (the calibrated loop): its screen
+    trials (``SET=method``) and the method study's full trials (its records and its ``latency/`` runs), with
     ``where`` (``screen`` / ``full``), ``latency_ms`` and ``half`` (seeds 0-9, the method study's, or
     10-19); and, apart, the trials of levers on top of it (``SET=method_levers``), with their
     ``method_lever`` (:func:`method_lever`). The records are read once for both."""
@@ -484,7 +489,7 @@ def method_frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     # the method, or the method with its reference paced (a lever on it, pacing=hold)
     names = [method_name(r) or "" for r in df.to_dict("records")]
     ours = np.array([n == METHOD or n.startswith(f"{METHOD}+pacing=") for n in names], bool)
-    df = df[(df["task"] == "paper_stapler").to_numpy() & ours]
+    df = df[df["task"].isin(METHOD_TASKS).to_numpy() & ours]
     df = df[(df["replan_interval"] - 0.17).abs() < 1e-6].copy()  # not the runs planning every 60 ms
     if "planner.approach_reset" in df:  # the method itself, not a lever on top of it
         df = df[df["planner.approach_reset"].isna()]
@@ -577,16 +582,18 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
     }
     lines, better = [], []
     for n, g in by.items():
-        if line := _pair("paper_stapler", g, base, f"`{n}`", "the method"):
-            lines.append(line)
-        a, b, _ = _shared(g, base)
-        (ak, an), (bk, bn) = _k(a, "lifted"), _k(b, "lifted")
-        if an and bn and ak / an > bk / bn and completion_test(ak, an, bk, bn)[0] < 0.05:
-            better.append(f"`{n}`")
+        for task in METHOD_TASKS:
+            mine, theirs = g[g["task"] == task], base[base["task"] == task]
+            if line := _pair(task, mine, theirs, f"`{n}`", "the method"):
+                lines.append(line)
+            a, b, _ = _shared(mine, theirs)
+            (ak, an), (bk, bn) = _k(a, "lifted"), _k(b, "lifted")
+            if an and bn and ak / an > bk / bn and completion_test(ak, an, bk, bn)[0] < 0.05:
+                better.append(f"`{n}` ({task.removeprefix('paper_')})")
     if "pacehold" in by and (waits := pacing_waits(by["pacehold"])):
         lines.append(waits)
     lines.append(
-        "Levers that lift the stapler more often than the method on the same seeds (Barnard p < 0.05): "
+        "Levers that lift the object more often than the method on the same seeds (Barnard p < 0.05): "
         + (", ".join(better) if better else "none")
         + "."
     )
@@ -594,7 +601,8 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         "## Levers on top of the method\n\n"
         f"`SET=method_levers`, `method_cost`, `method_cost2`, `method_pacing`: the method (`{METHOD}`, its "
         f"preset, {CALIBRATED_MS} ms) with an option changed (two together: a name of two words), on the "
-        "stapler's screen, against the method's own screen trials (`SET=method`) on the same seeds. "
+        "stapler's screen, against the method's own screen trials (`SET=method`) on the same seeds; "
+        "`SET=method_lift TASKS=paper_apple`: the method and `until3` on the apple's screen. "
         + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
         + ".\n\n"
         + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])
@@ -607,6 +615,7 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
 def method_section(df: pd.DataFrame) -> str:
     """The method in the screen at the calibrated latency and with plans applied after 60 ms, against its
     full trials (on the seeds it was chosen on), and the screen's two halves of seeds against each other."""
+    df = df[df["task"] == "paper_stapler"] if len(df) else df  # (the apple's screen: one latency, no halves)
     if not len(df) or not (df["where"] == "screen").any():
         return ""
     lats = sorted(set(df.loc[df["where"] == "screen", "latency_ms"]), reverse=True)
