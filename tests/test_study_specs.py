@@ -249,6 +249,18 @@ def test_the_method_study_says_how_an_unsettled_free_object_ended() -> None:
     assert spec.endings(pd.DataFrame(rows), "no_such_task") == {}
 
 
+def test_the_method_study_s_online_row_says_how_many_trials_ran_at_once() -> None:
+    """_online_row: a run's row ends with the trials running at once while it ran (its record's
+    concurrent_trials), a dash for a record without it."""
+    spec = Study("method").spec
+    run = {"task": "paper_apple", "variant": spec.METHOD, "seed": 0, "slowdown": 1.0, "real_time_factor": 1.0,
+           "replan_interval_median": 0.1, "plan_latency_median": 0.1, "completed": True,
+           "finished_cleanly": False, "ttf": 1.0}  # fmt: skip
+    assert spec._online_row(run | {"concurrent_trials": 5}).endswith("| yes | no | 1.00 | 5 |")
+    assert spec._online_row(run).startswith(f"| apple | {spec.METHOD} | 0 | 1 |")
+    assert spec._online_row(run).endswith("| 1.00 | — |")
+
+
 def test_the_method_study_sets_online_runs_held_to_the_calibrated_latency_beside_those_not(tmp_path) -> None:
     """held_online: per task and slowdown, the method's online runs held to the calibrated latency
     (apply_after) against its continuously replanning runs at the same slowdown; nothing without them."""

@@ -539,7 +539,7 @@ def _online_row(r: dict) -> str:
         f"| {Fmt.num(slowdown, 0)} | {Fmt.num(factor, 3)} "
         f"| {_ms(r, 'replan_interval_median')} | {_ms(r, 'plan_latency_median')} "
         f"| {yes[bool(r.get('completed'))]} | {yes[bool(r.get('finished_cleanly'))]} "
-        f"| {Fmt.num(r.get('ttf', math.nan), 2)} |"
+        f"| {Fmt.num(r.get('ttf', math.nan), 2)} | {r.get('concurrent_trials') or '—'} |"
     )
 
 
@@ -1314,13 +1314,16 @@ def online(study) -> str:
     rows = [_online_row(r) for r in records]
     cols = (
         "task", "method", "seed", "slowdown", "real-time factor", "replan interval, median (ms)",
-        "plan latency, median (ms)", "completed", "finished cleanly", "TTF",
+        "plan latency, median (ms)", "completed", "finished cleanly", "TTF", "trials at once",
     )  # fmt: skip
     name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {online_method(r)}"  # noqa: E731
     table, prose, _ = by_slowdown(records, name)
     return (
         head
-        + pipe_table(cols, "lllrrrrllr", rows)
+        + pipe_table(cols, "lllrrrrllrr", rows)
+        + "\n*Trials at once*: the most trials running on the machine while the run ran, itself included "
+        "(the record's `concurrent_trials`; — where the record predates it): a run beside others planned on "
+        "a busier machine, so its plans took longer than the same run's alone.\n"
         + "\nHow many threads real time needs:\n\n"
         + markdown(pd.DataFrame(table))
         + "\n- "
