@@ -1824,10 +1824,9 @@ SAME_RECORD = ("completed", "finished_cleanly", "ttf", "final_object_position_er
                "final_object_rotation_error", "final_object_articulation_error")  # fmt: skip
 
 
-def _trial_key(path) -> str | None:
+def _trial_key(record: dict) -> str | None:
     """A record's resolved config (its output folder left out) and processor, as one string: two records
     with the same key ran the same trial on the same processor; ``None`` for a record without a config."""
-    record = json.loads(Path(path).read_text())
     config = dict(record.get("config") or {})
     config.pop("output_dir", None)
     return json.dumps([config, record.get("cpu")], sort_keys=True) if config else None
@@ -1842,17 +1841,20 @@ def reproduced(study, df: pd.DataFrame) -> str:
     levers = lever_frame(study)
     if not len(mine) or not len(levers):
         return ""
+    read = lambda path: json.loads(Path(path).read_text())  # noqa: E731
     by_key = {}
     for path, lever in zip(levers["record_path"], levers["lever"], strict=True):
-        if (key := _trial_key(path)) is not None:
-            by_key.setdefault(key, (path, lever))
+        record = read(path)
+        if (key := _trial_key(record)) is not None:
+            by_key.setdefault(key, (record, lever))
     same, names, n = 0, set(), 0
     for path in mine["record_path"]:
-        if (found := by_key.get(_trial_key(path))) is None:
+        a = read(path)
+        if (found := by_key.get(_trial_key(a))) is None:
             continue
         n += 1
-        names.add(found[1])
-        a, b = (json.loads(Path(p).read_text()) for p in (path, found[0]))
+        b, lever = found
+        names.add(lever)
         same += all(a.get(k) == b.get(k) for k in SAME_RECORD)
     if not n:
         return ""
