@@ -113,6 +113,15 @@ LEVERS=(
   "variant=grasp_release_ahead_acquire pacing=hold planner.pace_rate=0.3"
 )
 at_method_point
+# SET=retarget: the method with the reference's grasp corrected by one wrist translation (retarget=wrist: the
+# offset that best puts the links the reference expects in contact on the object's surface), against the method's
+# own screen trials (SET=method, SET=method_lift); TASKS=paper_apple first (its grasp: fingertips where the
+# reference wraps the hand around the apple)
+elif [[ ${SET:-full} == retarget ]]; then
+LEVERS=(
+  "variant=grasp_release_ahead_acquire retarget=wrist"
+)
+at_method_point
 else
 LEVERS=(
   "variant=full"

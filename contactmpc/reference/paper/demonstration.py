@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from contactmpc.reference.data import Reference
 from contactmpc.reference.paper.importer import import_reference
+from contactmpc.reference.retarget import offset_wrist, wrist_offset
 
 if TYPE_CHECKING:
     from contactmpc.scene import Scene
@@ -23,9 +24,23 @@ class PaperDemonstration:
 
     Importing takes well under a second, so the reference is not cached: it is always read from the
     files the task names.
+
+    Args:
+        wrist_fit: offset the wrist's slides by the translation that best puts the links the reference
+            expects in contact on the object's surface over its grasp
+            (:mod:`contactmpc.reference.retarget`; not the paper's, ``retarget=wrist``). Off: the authors'
+            motion as imported.
+        wrist_fit_ramp: seconds of the trial (the slowed reference) over which the offset eases in
+            before the first expected contact and out after the last.
     """
 
     cacheable = False
+
+    def __init__(self, wrist_fit: bool = False, wrist_fit_ramp: float = 1.0) -> None:
+        if wrist_fit_ramp <= 0:
+            raise ValueError(f"task.demonstration.wrist_fit_ramp={wrist_fit_ramp}: expected > 0 seconds")
+        self.wrist_fit = bool(wrist_fit)
+        self.wrist_fit_ramp = float(wrist_fit_ramp)
 
     def build(self, scene: Scene) -> Reference:
         """Import the reference of ``scene.task`` for ``scene.hand`` mounted at ``scene.hand_root``.
@@ -34,7 +49,7 @@ class PaperDemonstration:
             ReferenceError: one line naming the file and what is wrong with it.
         """
         task, hand = scene.task, scene.hand
-        return import_reference(
+        ref = import_reference(
             task.files,
             task=task.name,
             object_name=task.object_name,
@@ -47,3 +62,6 @@ class PaperDemonstration:
             object_quat_index=task.layout.quat_index,
             joint_ranges=hand.joint_ranges,
         )
+        if not self.wrist_fit:
+            return ref
+        return offset_wrist(ref, wrist_offset(scene, ref), self.wrist_fit_ramp / task.time_scale)
