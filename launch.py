@@ -122,6 +122,16 @@ register_configs()
 
 def build_scene(cfg: DictConfig):
     """Instantiate hand, task and scene from the composed config."""
+    demo = cfg.task.get("demonstration")
+    if (
+        demo is not None
+        and "wrist_fit" in demo
+        and not str(demo.get("_target_")).endswith(".PaperDemonstration")
+    ):
+        raise ValueError(
+            f"retarget=wrist: task {cfg.task.get('name', '?')!r} has no retargeted demonstration to correct "
+            f"(its demonstration is {demo.get('_target_')}); use it with a paper task (task=paper_*)"
+        )
     hand = instantiate(cfg.hand)
     task = instantiate(cfg.task)
     return instantiate(cfg.scene)(hand=hand, task=task)

@@ -58,7 +58,9 @@ def wrist_offset(scene: Scene, ref: Reference) -> np.ndarray:
         raise ValueError(f"retarget=wrist: hand {scene.hand.name!r} has no wrist slides to offset")
     grasp = np.flatnonzero(ref.contact_active.sum(axis=1) > FAILURE_MIN_EXPECTED)
     if not len(grasp):
-        raise ValueError(f"retarget=wrist: the reference of {ref.task!r} expects more than six contacts nowhere")
+        raise ValueError(
+            f"retarget=wrist: the reference of {ref.task!r} expects more than six contacts nowhere"
+        )
     frames = grasp[::_EVERY]
     pairs = kin.collision_pairs(kin.link_geoms, kin.object_geoms)
 
