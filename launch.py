@@ -56,6 +56,7 @@ LABELS = (
     "pacing",
     "carry",
     "grip",
+    "retarget",
     "preset",
     "experiment",
     "perturbation",

@@ -86,6 +86,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "pacing": None,
     "carry": None,
     "grip": None,
+    "retarget": None,
     "hand": None,
     "cost": None,
     "sampler": None,
