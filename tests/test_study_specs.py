@@ -368,6 +368,9 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert spec.method_lever({"pacing": "hold"}) == "pacehold" and spec.method_lever({"pacing": "none"}) == ""
     assert spec.method_lever({"sampler.root_rotation_sigma2": 0.0025}) == "wristrot0.0025"
     assert spec.method_lever({"pacing": "hold", "planner.pace_rate": 0.3}) == "pacehold rate0.3"
+    assert spec.method_lever({"task.demonstration.wrist_fit": True}) == "retarget"
+    assert spec.method_lever({"task.demonstration.wrist_fit": float("nan")}) == ""
+    assert spec.method_lever({"task.demonstration.wrist_fit": False, "cost.lambda_c": 3.0}) == "contact3"
     common = {"where": "screen", "latency_ms": spec.CALIBRATED_MS, "task": "paper_stapler", "status": "ok",
               "ttf": 1.0, "cpu_seconds": 100.0}  # fmt: skip
     method = pd.DataFrame([{**common, "seed": s, "lifted": s < 3, "completed": s < 3} for s in range(6)])

@@ -25,6 +25,7 @@ EXPERIMENTS = [
     "bash studies/method_screen/run_screen.sh",
     'SET=method SEEDS="$(seq -s " " 0 19)" bash studies/method_screen/run_screen.sh',
     'SET=method_lift TASKS=paper_apple SEEDS="$(seq -s " " 0 19)" bash studies/method_screen/run_screen.sh',
+    'SET=retarget TASKS=paper_apple SEEDS="$(seq -s " " 0 19)" bash studies/method_screen/run_screen.sh',
 ]
 #: The full trials of the same variants: the full method at preset=paper_32samples (fig3_paper) and the
 #: stapler's wrist_clearance at 32 samples (stapler/records/stapler_clearance).
@@ -440,6 +441,7 @@ METHOD_LEVER_KEYS = (
     ("cost.surface_weight", 0.0, "surface"),
     ("pacing", "none", "pace"),
     ("planner.pace_rate", 0.0, "rate"),
+    ("task.demonstration.wrist_fit", False, "retarget"),
 )
 
 #: What each lever on top of the method is, by its name's key (:data:`METHOD_LEVER_KEYS`' short names).
@@ -463,6 +465,10 @@ METHOD_LEVER_TEXT = {
     "longer)",
     "rate": "`pacehold rate0.3`: the same with the reference's clock slowed to 0.3 instead of held while the "
     "stapler lags (`planner.pace_rate=0.3`: the lift slowed, not stopped)",
+    "retarget": "`retarget`: the reference's grasp corrected by one wrist translation (`retarget=wrist`: the "
+    "offset of the wrist's slides that best puts the links the reference expects in contact on the object's "
+    "surface, eased in over 1 s before the first expected contact; the retargeted grasp passes the "
+    "fingertips into the object and keeps the palm off it)",
 }
 
 
@@ -472,7 +478,9 @@ def method_lever(row: dict) -> str:
     parts = []
     for key, default, short in METHOD_LEVER_KEYS:
         v = _value(row.get(key), default)
-        if v != default:
+        if isinstance(default, bool):  # an option that is on or off: its name alone when on
+            parts += [short] * bool(v)
+        elif v != default:
             parts.append(f"{short}{v:g}" if isinstance(v, float) else f"{short}{v}")
     return " ".join(parts)
 
@@ -489,7 +497,9 @@ def method_frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     df = df.assign(method_lever=[method_lever(r) for r in df.to_dict("records")])
     # the method, or the method with its reference paced (a lever on it, pacing=hold)
     names = [method_name(r) or "" for r in df.to_dict("records")]
-    ours = np.array([n == METHOD or n.startswith(f"{METHOD}+pacing=") for n in names], bool)
+    ours = np.array(
+        [n == METHOD or n.startswith((f"{METHOD}+pacing=", f"{METHOD}+retarget=")) for n in names], bool
+    )
     df = df[df["task"].isin(METHOD_TASKS).to_numpy() & ours]
     df = df[(df["replan_interval"] - 0.17).abs() < 1e-6].copy()  # not the runs planning every 60 ms
     if "planner.approach_reset" in df:  # the method itself, not a lever on top of it
@@ -604,7 +614,9 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         f"preset, {CALIBRATED_MS} ms) with an option changed (two together: a name of two words), on the "
         "stapler's screen, against the method's own screen trials (`SET=method`) on the same seeds; "
         "`SET=method_lift TASKS=paper_apple`: the method and `until3` on the apple's screen (the window ends "
-        "before the apple is handed off, so no apple screen trial completes: `lifted` is its measure). "
+        "before the apple is handed off, so no apple screen trial completes: `lifted` is its measure); "
+        "`SET=retarget TASKS=paper_apple`: `retarget` on the apple's screen, against the method's trials of "
+        "`SET=method_lift`. "
         + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
         + ".\n\n"
         + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])
