@@ -259,6 +259,10 @@ def test_the_method_study_s_online_row_says_how_many_trials_ran_at_once() -> Non
     assert spec._online_row(run | {"concurrent_trials": 5}).endswith("| yes | no | 1.00 | 5 |")
     assert spec._online_row(run).startswith(f"| apple | {spec.METHOD} | 0 | 1 |")
     assert spec._online_row(run).endswith("| 1.00 | — |")
+    # a run beside others is named apart from the same method's runs alone
+    assert spec.online_method(run | {"concurrent_trials": 5}) == f"{spec.METHOD}, beside 4 other trials"
+    assert spec.online_method(run | {"concurrent_trials": 2}) == f"{spec.METHOD}, beside 1 other trial"
+    assert spec.online_method(run | {"concurrent_trials": 1}) == spec.online_method(run) == spec.METHOD
 
 
 def test_the_method_study_sets_online_runs_held_to_the_calibrated_latency_beside_those_not(tmp_path) -> None:

@@ -522,12 +522,16 @@ def _ms(r: dict, key: str) -> str:
 def online_method(r: dict) -> str:
     """An online run's method: :func:`method_name`, ``paced N ms`` where the planner was paced to a plan
     every ``job.min_interval`` of control time at most, and ``held to N ms`` where each plan was held to act
-    no sooner than ``job.apply_after`` after its state."""
+    no sooner than ``job.apply_after`` after its state; ``beside N other trials`` where others ran on the
+    machine at the same time (the record's ``concurrent_trials``), so its runs are not counted with the same
+    method's runs alone."""
     paced, held = r.get("min_interval") or 0.0, r.get("apply_after") or 0.0
+    others = int(r.get("concurrent_trials") or 1) - 1
     return (
         method_name(r)
         + (f", paced {1e3 * paced:.0f} ms" if paced > 0 else "")
         + (f", held to {1e3 * held:.0f} ms" if held > 0 else "")
+        + (f", beside {others} other trial{'s' * (others > 1)}" if others > 0 else "")
     )
 
 

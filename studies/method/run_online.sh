@@ -5,18 +5,19 @@
 # the method completes the task on 2 threads of this CPU, i.e. real time on 2 x that many threads.
 # Run on a quiet machine (the runs measure wall-clock time: stop other jobs while they run), from the
 # repository root, with CONTACTMPC_PAPER_DATA set:
-#   bash studies/method/run_online.sh                  (VARIANTS="grasp_release_ahead grasp_release")
+#   bash studies/method/run_online.sh                  (VARIANTS="grasp_held_eased", the paper tasks' default)
 # Each run's record goes to outputs/method_online/<run>/ (trial.json + timeseries.npz); its trial.json is kept
 # in studies/method/online/<run>/trial.json. A run whose record exists is skipped (resume=true). Budget: a run
 # takes its trial's control time x slowdown in wall time (39-69 s at slowdown 1). PACED=170 paces the planner
 # to a plan every 0.170 s of control time at most (job.min_interval; three digits, ms), the runs named _paced170;
 # HELD=170 holds each plan to act no sooner than 0.170 s of control time after its state (job.apply_after), _held170.
+# SUFFIX=_again appends to the runs' names: a second set of runs beside the kept ones, not over them.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 : "${CONTACTMPC_PAPER_DATA:?set CONTACTMPC_PAPER_DATA to the mjpc/tasks directory of the paper authors}"
 PY=${PY:-python}
 KEEP=studies/method/online
-for method in ${VARIANTS:-grasp_release_ahead grasp_release}; do
+for method in ${VARIANTS:-grasp_held_eased}; do
   # a method is a variant, then +group=member for each group on top (grasp_release_ahead+effort=acquire)
   variant=${method%%+*}; groups=""
   if [[ $method == *+* ]]; then groups=${method#*+}; groups=${groups//+/ }; fi
@@ -24,7 +25,7 @@ for method in ${VARIANTS:-grasp_release_ahead grasp_release}; do
     for slowdown in ${SLOWDOWNS:-1 2 3}; do
       every=1
       for seed in 0 1; do
-        name="${task}_${method//[+=]/_}${PACED:+_paced${PACED}}${HELD:+_held${HELD}}_slowdown${slowdown}_seed${seed}"
+        name="${task}_${method//[+=]/_}${PACED:+_paced${PACED}}${HELD:+_held${HELD}}_slowdown${slowdown}_seed${seed}${SUFFIX:-}"
         dir="outputs/method_online/$name"
         # shellcheck disable=SC2086
         $PY launch.py job=online task="$task" variant="$variant" $groups planner.nthread=2 \
