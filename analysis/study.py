@@ -177,7 +177,7 @@ class Study:
         if experiments:
             lines += ["The records were made by:", "", "```"]
             lines += [
-                e if e.startswith(("python", "bash")) else f"python launch.py experiment={e}"
+                e if e.startswith(("python", "bash")) or " " in e else f"python launch.py experiment={e}"
                 for e in experiments
             ]
             lines += ["```", ""]

@@ -61,7 +61,8 @@ def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_tar
     tasks, seeds = spec.plan()
     assert tasks == ["doorknob", "apple", "bottle", "stapler"] and seeds == list(range(10))
     assert spec.variants() == list(spec.ORDER)
-    assert spec.ORDER[1:] == ("grasp_release_ahead_acquire", "grasp_release_ahead", "grasp_release", "full")
+    after = spec.ORDER[spec.ORDER.index(spec.METHOD) + 1 :]
+    assert after == ("grasp_release_ahead_acquire", "grasp_release_ahead", "grasp_release", "full")
     assert spec.others() == [v for v in spec.ORDER if v != spec.METHOD] and "full" in spec.others()
     assert spec.target(9, 8, 10) == "met" and spec.target(10, 7, 10) == "missed"
     assert spec.target(9, 8, 9).startswith("met (already") and spec.target(2, 1, 4).startswith(
@@ -372,9 +373,9 @@ def test_the_method_screen_sets_each_lever_on_the_method_against_the_method_on_t
     assert spec.method_lever({"pacing": "hold"}) == "pacehold" and spec.method_lever({"pacing": "none"}) == ""
     assert spec.method_lever({"sampler.root_rotation_sigma2": 0.0025}) == "wristrot0.0025"
     assert spec.method_lever({"pacing": "hold", "planner.pace_rate": 0.3}) == "pacehold rate0.3"
-    assert spec.method_lever({"task.demonstration.wrist_fit": True}) == "retarget"
-    assert spec.method_lever({"task.demonstration.wrist_fit": float("nan")}) == ""
-    assert spec.method_lever({"task.demonstration.wrist_fit": False, "cost.lambda_c": 3.0}) == "contact3"
+    assert spec.method_lever({"retarget": "wrist"}) == "retarget=wrist"
+    assert spec.method_lever({"retarget": float("nan")}) == spec.method_lever({"retarget": "none"}) == ""
+    assert spec.method_lever({"retarget": None, "cost.lambda_c": 3.0}) == "contact3"
     common = {"where": "screen", "latency_ms": spec.CALIBRATED_MS, "task": "paper_stapler", "status": "ok",
               "ttf": 1.0, "cpu_seconds": 100.0}  # fmt: skip
     method = pd.DataFrame([{**common, "seed": s, "lifted": s < 3, "completed": s < 3} for s in range(6)])
@@ -466,7 +467,7 @@ def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen
     assert f"- `{spec.METHOD}`, stapler, completed: 1 of 2 held out against 10 of 10, -50 points" in text
     assert "has no trial on these seeds yet" not in text
     # only an older method on the held-out seeds: its rows, and a line that the method has none
-    older = spec.ORDER[1]
+    older = spec.ORDER[spec.ORDER.index(spec.METHOD) + 1]
     monkeypatch.setattr(
         spec, "frame", lambda study, folder=None: trials([10, 11], [True, True], [True] * 2, older)
     )
@@ -527,7 +528,7 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
     )
     assert "`pacing=release place=wrist` 3 of 10 (stapler 0-2)" in text
     # levers run on an older method stand beside that method's trials, not the default's
-    older = spec.ORDER[1]
+    older = spec.ORDER[spec.ORDER.index(spec.METHOD) + 1]
     lever = lever.assign(variant=[f"{older}+carry=held"] * 6 + [older] * 4)
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: lever if folder == spec.LEVERS else held)
     assert spec.built_on(lever) == older and spec.built_on(lever.iloc[:0]) == spec.METHOD
@@ -563,12 +564,47 @@ def test_the_method_study_finds_the_method_s_trials_a_lever_ran_before_it_was_na
         "task": "apple", "variant": variant, "seed": range(len(paths)), "counted": True, "record_path": paths,
         "completed": True, "finished_cleanly": False})  # fmt: skip
     monkeypatch.setattr(
-        spec, "frame", lambda study, folder=None: frame(levers, spec.ORDER[1] + "+carry=held")
+        spec, "frame", lambda study, folder=None: frame(levers, spec.ORDER[-2] + "+carry=held")
     )
     text = spec.reproduced(None, frame(mine, spec.METHOD))
     assert f"Of `{spec.METHOD}`'s 4 trials, 2 ran the same resolved config on the same processor" in text
     assert "(`carry=held`); the two records agree" in text and "on 1 of 2." in text
-    assert spec.reproduced(None, frame(mine, spec.ORDER[1])) == ""  # no trial of the method
+    assert spec.reproduced(None, frame(mine, spec.ORDER[-2])) == ""  # no trial of the method
+
+
+def test_the_method_study_lets_a_lever_trial_of_the_method_s_config_stand_in_on_a_held_out_seed(
+    monkeypatch, tmp_path
+) -> None:
+    """stand_ins: a lever's held-out trial whose config is one of the method's trials' but for the seed (on
+    the same processor) stands in for the method where it has no held-out trial of its own; another config,
+    another processor, a seed the method has its own trial on, or a trial on the sweep's seeds does not."""
+    import json
+
+    import pandas as pd
+
+    spec = Study("method").spec
+
+    def record(name, seed, cpu="A", samples=32):
+        path = tmp_path / name / "trial.json"
+        path.parent.mkdir(parents=True)
+        config = {"seed": seed, "planner": {"num_samples": samples}, "output_dir": f"/x/{name}"}
+        path.write_text(json.dumps({"config": config, "cpu": cpu, "completed": True}))
+        return str(path)
+
+    mine = pd.DataFrame({"task": "apple", "variant": spec.METHOD, "seed": [0, 1], "counted": True,
+                         "status": "ok", "record_path": [record("m0", 0), record("m1", 1)]})  # fmt: skip
+    rows = [(10, "A", 32, "held out"), (11, "B", 32, "held out"), (12, "A", 64, "held out"),
+            (13, "A", 32, "held out"), (2, "A", 32, "sweep")]  # fmt: skip
+    levers = pd.DataFrame({
+        "task": "apple", "seed": [r[0] for r in rows], "seeds": [r[3] for r in rows], "counted": True,
+        "lever": "carry=held", "variant": spec.ORDER[-1],
+        "record_path": [record(f"l{r[0]}", r[0], r[1], r[2]) for r in rows]})  # fmt: skip
+    monkeypatch.setattr(spec, "lever_frame", lambda study: levers)
+    monkeypatch.setattr(spec, "counted", lambda df: df)
+    own = pd.DataFrame({"task": ["apple"], "seed": [13]})
+    out = spec.stand_ins(None, mine, own)
+    assert list(out["seed"]) == [10]
+    assert set(out["variant"]) == {spec.METHOD} and set(out["stand_in"]) == {"carry=held"}
 
 
 def test_the_method_study_sets_a_lever_against_the_lever_it_builds_on() -> None:

@@ -441,7 +441,7 @@ METHOD_LEVER_KEYS = (
     ("cost.surface_weight", 0.0, "surface"),
     ("pacing", "none", "pace"),
     ("planner.pace_rate", 0.0, "rate"),
-    ("task.demonstration.wrist_fit", False, "retarget"),
+    ("retarget", "none", "retarget="),
 )
 
 #: What each lever on top of the method is, by its name's key (:data:`METHOD_LEVER_KEYS`' short names).
@@ -465,7 +465,7 @@ METHOD_LEVER_TEXT = {
     "longer)",
     "rate": "`pacehold rate0.3`: the same with the reference's clock slowed to 0.3 instead of held while the "
     "stapler lags (`planner.pace_rate=0.3`: the lift slowed, not stopped)",
-    "retarget": "`retarget`: the reference's grasp corrected by one wrist translation (`retarget=wrist`: the "
+    "retarget=": "`retarget=wrist`: the reference's grasp corrected by one wrist translation (the "
     "offset of the wrist's slides that best puts the links the reference expects in contact on the object's "
     "surface, eased in over 1 s before the first expected contact; the retargeted grasp passes the "
     "fingertips into the object and keeps the palm off it)",
@@ -478,9 +478,7 @@ def method_lever(row: dict) -> str:
     parts = []
     for key, default, short in METHOD_LEVER_KEYS:
         v = _value(row.get(key), default)
-        if isinstance(default, bool):  # an option that is on or off: its name alone when on
-            parts += [short] * bool(v)
-        elif v != default:
+        if v != default:
             parts.append(f"{short}{v:g}" if isinstance(v, float) else f"{short}{v}")
     return " ".join(parts)
 
@@ -615,8 +613,8 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         "stapler's screen, against the method's own screen trials (`SET=method`) on the same seeds; "
         "`SET=method_lift TASKS=paper_apple`: the method and `until3` on the apple's screen (the window ends "
         "before the apple is handed off, so no apple screen trial completes: `lifted` is its measure); "
-        "`SET=retarget TASKS=paper_apple`: `retarget` on the apple's screen, against the method's trials of "
-        "`SET=method_lift`. "
+        "`SET=retarget TASKS=paper_apple`: `retarget=wrist` on the apple's screen, against the method's "
+        "trials of `SET=method_lift`. "
         + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
         + ".\n\n"
         + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])
