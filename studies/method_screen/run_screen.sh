@@ -122,6 +122,14 @@ LEVERS=(
   "variant=grasp_release_ahead_acquire retarget=wrist"
 )
 at_method_point
+# SET=planner_dt: the method with a planning model of 5 ms steps instead of 10 (scene.planner_timestep=0.005: twice the
+# steps a rollout, the plant's 1 ms unchanged), against the method's own screen trials; TASKS=paper_apple first (the
+# recorded grasps that lift the apple in the plant drop it when replayed open-loop in the 10 ms model)
+elif [[ ${SET:-full} == planner_dt ]]; then
+LEVERS=(
+  "variant=grasp_release_ahead_acquire scene.planner_timestep=0.005"
+)
+at_method_point
 else
 LEVERS=(
   "variant=full"
