@@ -1616,6 +1616,58 @@ def _replays(study) -> str:
     return release_replays(pd.read_csv(path)) if path is not None and path.is_file() else ""
 
 
+LIFTS = "lift_replay.csv"
+
+
+def lift_replays(rows: pd.DataFrame) -> str:
+    """What the apple's replayed grasps (:data:`LIFTS`'s rows: ``seed``, ``model``, ``step``, ``lifted``,
+    ``lifted_in_trial``, ``before``, ``after``; ``studies/method/lift_replay.py``) say: per model, of the
+    replays the plant lifts, how many the model lifts too, and on how many trials it agrees with the plant."""
+    if not len(rows):
+        return ""
+    plant = rows[rows["model"] == "plant"].set_index("seed")["lifted"]
+    n_trial = int(rows.drop_duplicates("seed")["lifted_in_trial"].sum())
+    before, after = rows["before"].iloc[0], rows["after"].iloc[0]
+    head = (
+        f"Each of `{METHOD}`'s apple trials replayed open-loop (`python studies/method/lift_replay.py`): "
+        f"from its recorded configuration {before:g} s before its contact span starts (the hand not yet on "
+        "the apple; velocities zeroed, so a replay is near its trial, not it), its recorded hand targets "
+        f"to {after:g} s after (past the reference's lift), in the plant and in the planning model stepped "
+        "at each step below; lifted: the apple ends at least 5 cm above where it started. The plant's "
+        f"replays lift the apple on {of(int(plant.sum()), len(plant))} (seeds "
+        f"{seeds(sorted(plant.index[plant]))}; the trials themselves lifted it on {of(n_trial, len(plant))}: "
+        "an open-loop replay is not its closed-loop trial).\n\n"
+    )
+    lines = []
+    for model, g in rows[rows["model"] != "plant"].groupby("model", sort=False):
+        mine = g.set_index("seed")["lifted"].reindex(plant.index)
+        both = int((mine & plant).sum())
+        agree = int((mine == plant).sum())
+        lines.append(
+            f"- {model}: lifts the apple on {of(both, int(plant.sum()))} of the replays the plant lifts it "
+            f"on (and on {of(int((mine & ~plant).sum()), int((~plant).sum()))} of those it does not); agrees "
+            f"with the plant on {of(agree, len(plant))}"
+        )
+    step = rows.loc[rows["model"] != "plant", "step"].max()
+    coarse = rows[rows["step"] == step].set_index("seed")["lifted"].reindex(plant.index)
+    reading = (
+        f"\n\nSo the planning model the method rolls out ({1e3 * step:g} ms) loses the apple on "
+        f"{of(int((plant & ~coarse).sum()), int(plant.sum()))} of the grasps that lift it in the plant: its "
+        "rollouts cannot tell a grasp that holds from one that does not, so the plans are not chosen for "
+        "the lift (the screen's `SET=planner_dt` plans at 5 ms: the method_screen study).\n\n"
+        if int(plant.sum()) and 2 * int((plant & ~coarse).sum()) > int(plant.sum())
+        else "\n\n"
+    )
+    return (
+        head + ";\n".join(lines) + "." + reading + "![the apple's grasp replayed](figures/lift_replay.png)\n"
+    )
+
+
+def _lifts(study) -> str:
+    path = None if study is None else study.dir / "figures" / LIFTS
+    return lift_replays(pd.read_csv(path)) if path is not None and path.is_file() else "Not replayed yet.\n"
+
+
 def shortfall(df: pd.DataFrame, study=None) -> str:
     """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
     milestones they missed, when the failure rule fired) and those completed but not settled (the object
@@ -2010,6 +2062,8 @@ def report(study) -> str:
         + heldout(study, df)
         + "\n## Levers on the method, full trials\n\n"
         + levers_section(study, df)
+        + "\n## The planning model and the apple's lift\n\n"
+        + _lifts(study)
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
         + "\n## Letting go\n\n"
