@@ -57,6 +57,7 @@ LABELS = (
     "carry",
     "grip",
     "retarget",
+    "rollout",
     "preset",
     "experiment",
     "perturbation",

@@ -87,6 +87,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "carry": None,
     "grip": None,
     "retarget": None,
+    "rollout": None,
     "hand": None,
     "cost": None,
     "sampler": None,

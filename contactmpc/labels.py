@@ -1,18 +1,18 @@
 """Method labels and config keys across versions: one map that resuming and the analysis both read.
 
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
-``robust``; or a named combination such as ``wrist_clearance``) with ten independent groups on top:
+``robust``; or a named combination such as ``wrist_clearance``) with eleven independent groups on top:
 ``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance``), ``release``
 (``none | reset | open | scheduled | flat | backoff | eased``), ``compensation`` (``none | predict``),
 ``effort`` (``uniform | acquire``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``),
-``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze | carried | touched``) and ``retarget``
-(``none | wrist``).
+``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze | carried | touched``), ``retarget``
+(``none | wrist``) and ``rollout`` (``paper | fine``).
 Records made before the groups existed name the combination by one variant label (``variant:
 release_flat``); records made before the release schedule was one object store its options as flat sampler
 keys (``sampler.release_pause``); records made before a group existed read as its default.
 
 - :func:`method_labels` reads a record's labels, old or new, as ``{variant, wrist, shaping, release,
-  compensation, effort, place, pacing, carry, grip, retarget}``;
+  compensation, effort, place, pacing, carry, grip, retarget, rollout}``;
 - :func:`method_name` names the method of those labels, the same name for an old record and a new
   one of the same combination (the old variant's name where it had one: ``wrist_acquire``), by which
   the analysis groups trials;
@@ -39,6 +39,7 @@ GROUPS: dict[str, str] = {
     "carry": "none",
     "grip": "none",
     "retarget": "none",
+    "rollout": "paper",
 }
 """The method's groups on top of the variant, each with its default member (the paper's method)."""
 

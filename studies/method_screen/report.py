@@ -500,7 +500,11 @@ def method_frames(study) -> tuple[pd.DataFrame, pd.DataFrame]:
     # the method, or the method with its reference paced (a lever on it, pacing=hold)
     names = [method_name(r) or "" for r in df.to_dict("records")]
     ours = np.array(
-        [n == METHOD or n.startswith((f"{METHOD}+pacing=", f"{METHOD}+retarget=")) for n in names], bool
+        [
+            n == METHOD or n.startswith((f"{METHOD}+pacing=", f"{METHOD}+retarget=", f"{METHOD}+rollout="))
+            for n in names
+        ],
+        bool,
     )
     df = df[df["task"].isin(METHOD_TASKS).to_numpy() & ours]
     df = df[(df["replan_interval"] - 0.17).abs() < 1e-6].copy()  # not the runs planning every 60 ms
