@@ -607,6 +607,20 @@ def test_the_method_study_lets_a_lever_trial_of_the_method_s_config_stand_in_on_
     assert set(out["variant"]) == {spec.METHOD} and set(out["stand_in"]) == {"carry=held"}
 
 
+def test_the_method_study_sets_each_method_against_the_one_it_adds_a_step_to() -> None:
+    """built_from: a name with a group on top of a method of ORDER is built from that method; any other
+    from the next in ORDER that is not built on it; pairs holds each once."""
+    spec = Study("method").spec
+    assert spec.built_from("grasp_held_eased+rollout=fine") == "grasp_held_eased"
+    assert spec.built_from("grasp_held_eased+retarget=wrist") == "grasp_held_eased"
+    assert spec.built_from("grasp_held_eased") == "grasp_release_ahead_acquire"
+    assert spec.built_from(spec.ORDER[-1]) is None
+    pairs = spec.pairs()
+    assert ("grasp_held_eased+rollout=fine", "grasp_held_eased") in pairs
+    assert ("grasp_held_eased+rollout=fine", "grasp_held_eased+retarget=wrist") not in pairs
+    assert len(pairs) == len(set(pairs))
+
+
 def test_the_method_study_reads_the_apple_s_replayed_lifts_per_planning_model() -> None:
     """lift_replays: per model, of the replays the plant lifts, how many the model lifts too, and its
     agreement with the plant; the closing reading only where the method's (coarsest) model loses most of the

@@ -35,6 +35,8 @@ QUESTION = (
 TITLE = "The method: one method for the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
+    "python launch.py experiment=method variant=grasp_held_eased rollout=fine "
+    "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased retarget=wrist "
     "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased hydra.sweep.dir=studies/method/records",
@@ -50,6 +52,7 @@ HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
 ORDER = (
+    "grasp_held_eased+rollout=fine",
     "grasp_held_eased+retarget=wrist",
     "grasp_held_eased",
     "grasp_release_ahead_acquire",
@@ -399,11 +402,21 @@ def others() -> list[str]:
     return [v for v in ORDER if v != METHOD]
 
 
+def built_from(method: str) -> str | None:
+    """The method of :data:`ORDER` that ``method`` adds a step to: the name before its last ``+group=member``
+    where that is one (``grasp_held_eased`` of ``grasp_held_eased+rollout=fine``), else the next in
+    :data:`ORDER`; ``None`` for the last."""
+    if "+" in method and (base := method.rsplit("+", 1)[0]) in ORDER:
+        return base
+    later = ORDER[ORDER.index(method) + 1 :]
+    return next((m for m in later if not m.startswith(method + "+")), None)
+
+
 def pairs() -> list[tuple[str, str]]:
-    """What the side-by-side compares: each method of :data:`ORDER` against the one after it (the method
-    it adds one step to: a lever's effect), then :data:`METHOD` against the paper's method where that is
+    """What the side-by-side compares: each method of :data:`ORDER` against the one it adds one step to
+    (:func:`built_from`: a lever's effect), then :data:`METHOD` against the paper's method where that is
     not among them."""
-    steps = list(zip(ORDER, ORDER[1:], strict=False))
+    steps = [(m, parent) for m in ORDER if (parent := built_from(m)) is not None]
     return steps + ([(METHOD, BASELINE)] if (METHOD, BASELINE) not in steps and METHOD != BASELINE else [])
 
 
