@@ -621,10 +621,10 @@ def test_the_method_study_sets_each_method_against_the_one_it_adds_a_step_to() -
     assert len(pairs) == len(set(pairs))
 
 
-def test_the_method_study_reads_the_apple_s_replayed_lifts_per_planning_model() -> None:
-    """lift_replays: per model, of the replays the plant lifts, how many the model lifts too, and its
-    agreement with the plant; the closing reading only where the method's (coarsest) model loses most of the
-    plant's lifts; nothing without rows."""
+def test_the_method_study_reads_the_replayed_lifts_per_task_and_planning_model() -> None:
+    """lift_replays: per task and model, of the replays the plant lifts, how many the model lifts too, and
+    its agreement with the plant; the closing reading only where the method's (coarsest) model loses most of
+    the plant's lifts over the tasks; nothing without rows."""
     import pandas as pd
 
     spec = Study("method").spec
@@ -632,18 +632,22 @@ def test_the_method_study_reads_the_apple_s_replayed_lifts_per_planning_model() 
     rows = [("plant", 0.001, plant), ("planning model, 10 ms", 0.01, [False, False, True, True]),
             ("planning model, 5 ms", 0.005, [True, True, True, False])]  # fmt: skip
     df = pd.DataFrame([
-        {"seed": i, "model": m, "step": st, "lifted": lifted[i], "lifted_in_trial": True, "before": 0.3,
-         "after": 3.5} for m, st, lifted in rows for i in range(4)])  # fmt: skip
+        {"task": task, "seed": i, "model": m, "step": st, "lifted": lifted[i], "lifted_in_trial": True,
+         "before": 0.3, "after": 3.5}
+        for task in ("paper_stapler", "paper_apple")
+        for m, st, lifted in rows for i in range(4)])  # fmt: skip
     text = spec.lift_replays(df)
-    assert "The plant's replays lift the apple on 3 of 4 (seeds 0-2;" in text
+    assert text.index("**apple**") < text.index("**stapler**")  # the tasks in the study's order
+    assert "the plant's replays lift the apple on 3 of 4 (seeds 0-2;" in text
     assert (
-        "- planning model, 10 ms: lifts the apple on 1 of 3 of the replays the plant lifts it on "
-        "(and on 1 of 1" in text
+        "- planning model, 10 ms: lifts it on 1 of 3 of the replays the plant lifts it on (and on 1 of 1"
+        in text
     )
     assert "agrees with the plant on 1 of 4;" in text and "agrees with the plant on 4 of 4." in text
-    assert "(10 ms) loses the apple on 2 of 3 of the grasps that lift it in the plant" in text
+    assert "(10 ms) loses the object on 4 of 6 of the grasps that lift it in the plant" in text
+    assert "figures/lift_replay_apple.png" in text
     kept = df[df["model"] != "planning model, 10 ms"]  # the coarsest model left keeps every lift
-    assert "loses the apple" not in spec.lift_replays(kept)
+    assert "loses the object" not in spec.lift_replays(kept)
     assert spec.lift_replays(df.iloc[0:0]) == ""
 
 

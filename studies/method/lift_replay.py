@@ -1,16 +1,16 @@
-"""The apple's grasp and lift replayed open-loop in the plant and in planning models of several steps: does
-the model the planner rolls out keep the apple in the hand where the plant does (the method study's "The
-planning model and the apple's lift")?
+"""The grasp and lift of the paper's free objects (apple, bottle, stapler) replayed open-loop in the plant
+and in planning models of several steps: does the model the planner rolls out keep the object in the hand
+where the plant does (the method study's "The planning model and the lift")?
 
-From each kept apple trial of the method that has its time series, the scene is put in the trial's recorded
-configuration :data:`BEFORE` s before its contact span starts (the hand not yet on the apple; velocities
-zeroed: the series keep none, so a replay is near its trial, not the trial), and the trial's recorded hand
-targets are replayed open-loop to :data:`AFTER` s after the span starts (past the reference's lift), in the
-plant model (its 1 ms) and in the planning model (the trial's own, with the planner's options) at each step
-of :data:`PLANNER_STEPS`. A replay lifts the apple where the apple ends at least :data:`LIFT` above where it
-started. Writes ``figures/lift_replay.csv`` (one row per trial and model) and ``figures/lift_replay.png``
-(the apple's height in each model, per trial), which the report reads (so a clone without the time series
-makes the same report):
+From each kept trial of the method on :data:`TASKS` that has its time series, the scene is put in the
+trial's recorded configuration :data:`BEFORE` s before its contact span starts (the hand not yet on the
+object; velocities zeroed: the series keep none, so a replay is near its trial, not the trial), and the
+trial's recorded hand targets are replayed open-loop to :data:`AFTER` s after the span starts (past the
+reference's lift), in the plant model (its 1 ms) and in the planning model (the trial's own, with the
+planner's options) at each step of :data:`PLANNER_STEPS`. A replay lifts the object where it ends at least
+:data:`LIFT` above where it started. Writes ``figures/lift_replay.csv`` (one row per trial and model) and
+``figures/lift_replay_<task>.png`` (the object's height in each model, per trial), which the report reads
+(so a clone without the time series makes the same report):
 
     CONTACTMPC_PAPER_DATA=... python studies/method/lift_replay.py
 """
@@ -32,12 +32,14 @@ from contactmpc.labels import method_name
 
 HERE = Path(__file__).resolve().parent
 CSV = HERE / "figures" / "lift_replay.csv"
-FIGURE = HERE / "figures" / "lift_replay.png"
+TASKS = ("paper_apple", "paper_bottle", "paper_stapler")
 METHOD = "grasp_held_eased"
 BEFORE = 0.3  # s before the contact span starts that a replay starts
-AFTER = 3.5  # s after the span starts that it ends (the reference lifts the apple 1.9-2.4 s after it)
+AFTER = (
+    3.5  # s after the span starts that it ends (past the references' lifts: the apple's 1.9-2.4 s after it)
+)
 PLANNER_STEPS = (0.01, 0.005, 0.002)  # s: the planning model's step (the method's 10 ms first)
-LIFT = 0.05  # m above its start: the task's lifted milestone's height
+LIFT = 0.05  # m above its start: the tasks' lifted milestone's height
 EVERY = 0.01  # s between the samples of the apple's height kept for the figure
 
 
@@ -51,7 +53,7 @@ def scene_of(record: dict, paper_data: str, planner_timestep: float):
 
 
 def replay(scene, model: mujoco.MjModel, series, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(times, heights)``: the apple's height (m) every :data:`EVERY` s while ``model`` runs the recorded
+    """``(times, heights)``: the object's height (m) every :data:`EVERY` s while ``model`` runs the recorded
     hand targets open-loop from the recorded configuration at ``start`` to ``end``."""
     t, targets = series["time"], series["hand_target"]
     i0 = int(np.searchsorted(t, start))
@@ -73,8 +75,8 @@ def replay(scene, model: mujoco.MjModel, series, start: float, end: float) -> tu
     return np.array(times), np.array(heights)
 
 
-def figure(curves: dict, path: Path) -> None:
-    """Per trial, the apple's height above its start in each replay."""
+def figure(curves: dict, path: Path, task: str) -> None:
+    """Per trial of ``task``, the object's height above its start in each replay."""
     import matplotlib.pyplot as plt
 
     seeds = sorted({seed for seed, _ in curves})
@@ -93,7 +95,7 @@ def figure(curves: dict, path: Path) -> None:
         ax.grid(alpha=0.3)
     for ax in axes.flat[len(seeds) :]:
         ax.axis("off")
-    axes[0][0].set_ylabel("apple above its start (mm)")
+    axes[0][0].set_ylabel(f"{task.removeprefix('paper_')} above its start (mm)")
     axes[0][0].legend(fontsize=6)
     fig.suptitle(
         f"the recorded hand targets replayed open-loop from {BEFORE:g} s before the grasp; "
@@ -110,11 +112,11 @@ def main() -> int:
     if not paper_data:
         print("lift_replay: error: set CONTACTMPC_PAPER_DATA to the authors' mjpc/tasks", file=sys.stderr)
         return 2
-    rows, curves = [], {}
-    for path in sorted((HERE / "records").glob("*task=paper_apple*/trial.json")):
+    rows, curves = [], {task: {} for task in TASKS}
+    for path in sorted((HERE / "records").glob("*/trial.json")):
         record = json.loads(path.read_text())
         series_path = path.parent / "timeseries.npz"
-        if not series_path.is_file() or method_name(record) != METHOD:
+        if record.get("task") not in TASKS or not series_path.is_file() or method_name(record) != METHOD:
             continue
         series = np.load(series_path)
         span = record["contact_span_start"]
@@ -129,19 +131,29 @@ def main() -> int:
         for name, step, scene, model in runs:
             times, heights = replay(scene, model, series, start, end)
             rise = heights - z0
-            rows.append({"record": path.parent.name, "seed": record["seed"], "model": name, "step": step,
+            rows.append({"record": path.parent.name, "task": record["task"], "seed": record["seed"],
+                         "model": name, "step": step,
                          "lifted_in_trial": bool(record.get("milestone_lifted")),
                          "rise": float(rise[-1]), "lifted": bool(rise[-1] >= LIFT),
                          "before": BEFORE, "after": AFTER})  # fmt: skip
-            curves[(record["seed"], name)] = (times - span, rise, bool(record.get("milestone_lifted")))
-            print(f"seed {record['seed']} {name}: the apple ends {1e3 * rise[-1]:+.0f} mm from its start")
+            curves[record["task"]][(record["seed"], name)] = (
+                times - span,
+                rise,
+                bool(record.get("milestone_lifted")),
+            )
+            print(
+                f"{record['task']} seed {record['seed']} {name}: "
+                f"the object ends {1e3 * rise[-1]:+.0f} mm from its start"
+            )
     if not rows:
-        print("lift_replay: error: no apple trial of the method with its time series", file=sys.stderr)
+        print("lift_replay: error: no trial of the method with its time series", file=sys.stderr)
         return 1
     CSV.parent.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(rows).to_csv(CSV, index=False, float_format="%.6g")
-    figure(curves, FIGURE)
-    print(f"wrote {CSV} and {FIGURE}")
+    for task, kept in curves.items():
+        if kept:
+            figure(kept, CSV.parent / f"lift_replay_{task.removeprefix('paper_')}.png", task)
+    print(f"wrote {CSV} and its figures")
     return 0
 
 

@@ -1633,47 +1633,54 @@ LIFTS = "lift_replay.csv"
 
 
 def lift_replays(rows: pd.DataFrame) -> str:
-    """What the apple's replayed grasps (:data:`LIFTS`'s rows: ``seed``, ``model``, ``step``, ``lifted``,
-    ``lifted_in_trial``, ``before``, ``after``; ``studies/method/lift_replay.py``) say: per model, of the
-    replays the plant lifts, how many the model lifts too, and on how many trials it agrees with the plant."""
+    """What the replayed grasps (:data:`LIFTS`'s rows: ``task``, ``seed``, ``model``, ``step``, ``lifted``,
+    ``lifted_in_trial``, ``before``, ``after``; ``studies/method/lift_replay.py``) say, per task: of the
+    replays the plant lifts, how many each planning model lifts too, and on how many trials it agrees with
+    the plant; then, over the tasks, how many of the plant's lifts the method's (coarsest) model loses."""
     if not len(rows):
         return ""
-    plant = rows[rows["model"] == "plant"].set_index("seed")["lifted"]
-    n_trial = int(rows.drop_duplicates("seed")["lifted_in_trial"].sum())
     before, after = rows["before"].iloc[0], rows["after"].iloc[0]
-    head = (
-        f"Each of `{METHOD}`'s apple trials replayed open-loop (`python studies/method/lift_replay.py`): "
-        f"from its recorded configuration {before:g} s before its contact span starts (the hand not yet on "
-        "the apple; velocities zeroed, so a replay is near its trial, not it), its recorded hand targets "
-        f"to {after:g} s after (past the reference's lift), in the plant and in the planning model stepped "
-        "at each step below; lifted: the apple ends at least 5 cm above where it started. The plant's "
-        f"replays lift the apple on {of(int(plant.sum()), len(plant))} (seeds "
-        f"{seeds(sorted(plant.index[plant]))}; the trials themselves lifted it on {of(n_trial, len(plant))}: "
-        "an open-loop replay is not its closed-loop trial).\n\n"
-    )
-    lines = []
-    for model, g in rows[rows["model"] != "plant"].groupby("model", sort=False):
-        mine = g.set_index("seed")["lifted"].reindex(plant.index)
-        both = int((mine & plant).sum())
-        agree = int((mine == plant).sum())
-        lines.append(
-            f"- {model}: lifts the apple on {of(both, int(plant.sum()))} of the replays the plant lifts it "
-            f"on (and on {of(int((mine & ~plant).sum()), int((~plant).sum()))} of those it does not); agrees "
-            f"with the plant on {of(agree, len(plant))}"
+    out = [
+        f"Each of `{METHOD}`'s trials on the free objects replayed open-loop "
+        f"(`python studies/method/lift_replay.py`): from its recorded configuration {before:g} s before its "
+        "contact span starts (the hand not yet on the object; velocities zeroed, so a replay is near its "
+        f"trial, not it), its recorded hand targets to {after:g} s after (past the reference's lift), in the "
+        "plant and in the planning model stepped at each step below; lifted: the object ends at least 5 cm "
+        "above where it started.\n"
+    ]
+    step = rows.loc[rows["model"] != "plant", "step"].max()  # the method's planning model
+    lost, lifts = 0, 0
+    for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        mine = rows[rows["task"] == task]
+        plant = mine[mine["model"] == "plant"].set_index("seed")["lifted"].astype(bool)
+        n_trial = int(mine.drop_duplicates("seed")["lifted_in_trial"].sum())
+        name = task.removeprefix("paper_")
+        lines = []
+        for model, g in mine[mine["model"] != "plant"].groupby("model", sort=False):
+            lifted = g.set_index("seed")["lifted"].astype(bool).reindex(plant.index, fill_value=False)
+            lines.append(
+                f"- {model}: lifts it on {of(int((lifted & plant).sum()), int(plant.sum()))} of the replays "
+                f"the plant lifts it on (and on {of(int((lifted & ~plant).sum()), int((~plant).sum()))} of "
+                f"the others); agrees with the plant on {of(int((lifted == plant).sum()), len(plant))}"
+            )
+            if g["step"].iloc[0] == step:
+                lost += int((plant & ~lifted).sum())
+                lifts += int(plant.sum())
+        out.append(
+            f"\n**{name}**: the plant's replays lift the {name} on {of(int(plant.sum()), len(plant))} (seeds "
+            f"{seeds(sorted(plant.index[plant]))}; the trials themselves lifted it on "
+            f"{of(n_trial, len(plant))}: an open-loop replay is not its closed-loop trial).\n\n"
+            + ";\n".join(lines)
+            + f".\n\n![{name}: the grasp replayed](figures/lift_replay_{name}.png)\n"
         )
-    step = rows.loc[rows["model"] != "plant", "step"].max()
-    coarse = rows[rows["step"] == step].set_index("seed")["lifted"].reindex(plant.index)
-    reading = (
-        f"\n\nSo the planning model the method rolls out ({1e3 * step:g} ms) loses the apple on "
-        f"{of(int((plant & ~coarse).sum()), int(plant.sum()))} of the grasps that lift it in the plant: its "
-        "rollouts cannot tell a grasp that holds from one that does not, so the plans are not chosen for "
-        "the lift (the screen's `SET=planner_dt` plans at 5 ms: the method_screen study).\n\n"
-        if int(plant.sum()) and 2 * int((plant & ~coarse).sum()) > int(plant.sum())
-        else "\n\n"
-    )
-    return (
-        head + ";\n".join(lines) + "." + reading + "![the apple's grasp replayed](figures/lift_replay.png)\n"
-    )
+    if lifts and 2 * lost > lifts:
+        out.append(
+            f"\nSo the planning model the method rolls out ({1e3 * step:g} ms) loses the object on "
+            f"{of(lost, lifts)} of the grasps that lift it in the plant: its rollouts cannot tell a grasp "
+            "that holds from one that does not, so the plans are not chosen for the lift (`rollout=fine` "
+            "plans at 5 ms).\n"
+        )
+    return "".join(out)
 
 
 def _lifts(study) -> str:
@@ -2075,7 +2082,7 @@ def report(study) -> str:
         + heldout(study, df)
         + "\n## Levers on the method, full trials\n\n"
         + levers_section(study, df)
-        + "\n## The planning model and the apple's lift\n\n"
+        + "\n## The planning model and the lift\n\n"
         + _lifts(study)
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
