@@ -383,3 +383,16 @@ def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
     bare = compose_config(["task=apple", "place=wrist"])
     with pytest.raises(ConfigError, match="no release schedule is selected.*release=scheduled"):
         PCASplineSpace(0.2, release=OmegaConf.to_container(bare.sampler.release))
+
+
+def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(compose):
+    """rollout=paper (the default) composes the same config as no choice; rollout=fine halves the planning
+    model's step and leaves the plant's; the scene it builds steps its planning model at 5 ms."""
+    base = compose(["task=apple"])
+    assert compose(["task=apple", "rollout=paper"]) == base
+    fine = compose(["task=apple", "rollout=fine"])
+    assert fine.scene.planner_timestep == 0.005
+    assert fine.scene.plant_timestep == base.scene.plant_timestep
+    scene = build_scene(("task=apple", "rollout=fine"))
+    assert scene.planner_model.opt.timestep == 0.005
+    assert scene.plant_model.opt.timestep == build_scene(("task=apple",)).plant_model.opt.timestep
