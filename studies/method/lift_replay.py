@@ -25,8 +25,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pandas as pd
-from hydra.utils import instantiate
-from omegaconf import OmegaConf
+from release_replay import scene_of  # this folder's script: the scene of a record
 
 from contactmpc.labels import method_name
 
@@ -41,15 +40,6 @@ AFTER = (
 PLANNER_STEPS = (0.01, 0.005, 0.002)  # s: the planning model's step (the method's 10 ms first)
 LIFT = 0.05  # m above its start: the tasks' lifted milestone's height
 EVERY = 0.01  # s between the samples of the apple's height kept for the figure
-
-
-def scene_of(record: dict, paper_data: str, planner_timestep: float):
-    """The trial's scene from its recorded config, with the authors' data at ``paper_data`` and the planning
-    model stepped at ``planner_timestep``."""
-    cfg = OmegaConf.create(record["config"])
-    cfg.task.paper_data = paper_data
-    cfg.scene.planner_timestep = planner_timestep
-    return instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))
 
 
 def replay(scene, model: mujoco.MjModel, series, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
@@ -124,7 +114,7 @@ def main() -> int:
         z0 = float(series["object_qpos"][int(np.searchsorted(series["time"], start)), 2])
         runs = []
         for step in PLANNER_STEPS:
-            scene = scene_of(record, paper_data, step)
+            scene = scene_of(record, paper_data, planner_timestep=step)
             if not runs:
                 runs.append(("plant", scene.plant_model.opt.timestep, scene, scene.plant_model))
             runs.append((f"planning model, {1e3 * step:g} ms", step, scene, scene.planner_model))

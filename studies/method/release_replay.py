@@ -71,13 +71,18 @@ RELEASES: dict[str, Release] = {
 }
 
 
-def scene_of(record: dict, paper_data: str, slide_friction: float = 0.0):
+def scene_of(
+    record: dict, paper_data: str, slide_friction: float = 0.0, planner_timestep: float | None = None
+):
     """The trial's scene, built from its recorded config with the authors' data at ``paper_data`` (and
-    ``slide_friction`` N of dry friction on the slide where it is not 0)."""
+    ``slide_friction`` N of dry friction on the slide where it is not 0; the planning model stepped at
+    ``planner_timestep`` where it is given)."""
     cfg = OmegaConf.create(record["config"])
     cfg.task.paper_data = paper_data
     if slide_friction:
         cfg.task.slide_friction = slide_friction
+    if planner_timestep is not None:
+        cfg.scene.planner_timestep = planner_timestep
     return instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))
 
 
