@@ -1,10 +1,9 @@
 """A retargeted demonstration's grasp corrected by one wrist translation (not the paper's).
 
 The authors' demonstrations are retargeted from a human hand: played back on the Allegro hand, the links
-the reference expects in contact are not on the object's surface. On the apple's grasp the thumb's tip
-passes 16 mm into the apple while the palm and the proximal links stay 9-15 mm off it
-(``python launch.py job=reference_report task=paper_apple``), so the plant, whose fingers stop at the
-surface, holds the apple with its fingertips where the reference wraps the hand around it.
+the reference expects in contact are not on the object's surface (some pass into it, others stay off it;
+``python launch.py job=reference_report task=paper_<t>`` measures how far), while the plant's fingers stop
+at the surface.
 
 :func:`wrist_offset` finds the one translation of the wrist's three slides that best puts the expected
 links on the object's surface over the grasp (the frames with more than six expected contacts, where the

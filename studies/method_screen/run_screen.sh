@@ -115,8 +115,7 @@ LEVERS=(
 at_method_point
 # SET=retarget: the method with the reference's grasp corrected by one wrist translation (retarget=wrist: the
 # offset that best puts the links the reference expects in contact on the object's surface), against the method's
-# own screen trials (SET=method, SET=method_lift); TASKS=paper_apple first (its grasp: fingertips where the
-# reference wraps the hand around the apple)
+# own screen trials (SET=method, SET=method_lift); TASKS=paper_apple first
 elif [[ ${SET:-full} == retarget ]]; then
 LEVERS=(
   "variant=grasp_release_ahead_acquire retarget=wrist"
@@ -124,7 +123,7 @@ LEVERS=(
 at_method_point
 # SET=planner_dt: the method with a planning model of 5 ms steps instead of 10 (scene.planner_timestep=0.005: twice the
 # steps a rollout, the plant's 1 ms unchanged), against the method's own screen trials; TASKS=paper_apple first (the
-# recorded grasps that lift the apple in the plant drop it when replayed open-loop in the 10 ms model)
+# method study's lift replays)
 elif [[ ${SET:-full} == planner_dt ]]; then
 LEVERS=(
   "variant=grasp_release_ahead_acquire scene.planner_timestep=0.005"
