@@ -25,7 +25,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pandas as pd
-from release_replay import scene_of  # this folder's script: the scene of a record
+from release_replay import recorded_target, scene_of  # this folder's script
 
 from contactmpc.labels import method_name
 
@@ -34,18 +34,17 @@ CSV = HERE / "figures" / "lift_replay.csv"
 TASKS = ("paper_apple", "paper_bottle", "paper_stapler")
 METHOD = "grasp_held_eased"
 BEFORE = 0.3  # s before the contact span starts that a replay starts
-AFTER = (
-    3.5  # s after the span starts that it ends (past the references' lifts: the apple's 1.9-2.4 s after it)
-)
+# s after the span starts that a replay ends (past the references' lifts: the apple's 1.9-2.4 s after it)
+AFTER = 3.5
 PLANNER_STEPS = (0.01, 0.005, 0.002)  # s: the planning model's step (the method's 10 ms first)
 LIFT = 0.05  # m above its start: the tasks' lifted milestone's height
-EVERY = 0.01  # s between the samples of the apple's height kept for the figure
+EVERY = 0.01  # s between the samples of the object's height kept for the figure
 
 
 def replay(scene, model: mujoco.MjModel, series, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
     """``(times, heights)``: the object's height (m) every :data:`EVERY` s while ``model`` runs the recorded
     hand targets open-loop from the recorded configuration at ``start`` to ``end``."""
-    t, targets = series["time"], series["hand_target"]
+    t = series["time"]
     i0 = int(np.searchsorted(t, start))
     d = mujoco.MjData(model)
     scene.reset(d, hand_qpos=series["hand_qpos"][i0], object_qpos=series["object_qpos"][i0])
@@ -55,9 +54,7 @@ def replay(scene, model: mujoco.MjModel, series, start: float, end: float) -> tu
     times, heights = [], []
     for k in range(steps):
         now = t[i0] + k * model.opt.timestep
-        d.ctrl[scene.index.actuators] = targets[
-            min(int(np.searchsorted(t, now, side="right")) - 1, len(t) - 1)
-        ]
+        d.ctrl[scene.index.actuators] = recorded_target(series, now)
         mujoco.mj_step(model, d)
         if k % keep == 0:
             times.append(now + model.opt.timestep)

@@ -86,19 +86,26 @@ def scene_of(
     return instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))
 
 
+def recorded_target(series, at_time: float) -> np.ndarray:
+    """The hand targets a trial's time series (``time``, ``hand_target``) had applied at ``at_time``: the
+    last sample at or before it."""
+    t = series["time"]
+    return series["hand_target"][min(int(np.searchsorted(t, at_time, side="right")) - 1, len(t) - 1)]
+
+
 def replay(scene, series, span_end: float, release: Release) -> tuple[float, float, float, float] | None:
     """``(let_go, speed, bound, off)``: when the hand last touches the knob (s after the span's end), the
     knob's mean speed from 0.2 to 1.2 s after that (m/s), the most it could keep and end within the task's
     tolerance (m/s), and how far from the reference's final position it is when the replay ends (m);
     ``None`` where the hand still holds it 1.2 s before the replay ends."""
     m = scene.plant_model
-    t, targets = series["time"], series["hand_target"]
+    t = series["time"]
     i0 = int(np.searchsorted(t, span_end - BEFORE))
     d = mujoco.MjData(m)
     scene.reset(d, hand_qpos=series["hand_qpos"][i0], object_qpos=series["object_qpos"][i0])
 
     def recorded(at_time: float) -> np.ndarray:
-        return targets[min(int(np.searchsorted(t, at_time, side="right")) - 1, len(t) - 1)]
+        return recorded_target(series, at_time)
 
     at = {
         "held": recorded(span_end - 1e-9).copy(),

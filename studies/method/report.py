@@ -1932,6 +1932,11 @@ SAME_RECORD = ("completed", "finished_cleanly", "ttf", "final_object_position_er
                "final_object_rotation_error", "final_object_articulation_error")  # fmt: skip
 
 
+def read_record(path) -> dict:
+    """A record (``trial.json``) as a dict."""
+    return json.loads(Path(path).read_text())
+
+
 def _trial_key(record: dict, seed: int | None = None) -> str | None:
     """A record's resolved config (its output folder left out) and processor, as one string: two records
     with the same key ran the same trial on the same processor; ``None`` for a record without a config.
@@ -1956,13 +1961,12 @@ def stand_ins(study, df: pd.DataFrame, own: pd.DataFrame) -> pd.DataFrame:
     levers = lever_frame(study)
     if not len(levers):
         return levers
-    read = lambda path: json.loads(Path(path).read_text())  # noqa: E731
-    keys = {_trial_key(read(path), seed=0) for path in mine["record_path"]} - {None}
+    keys = {_trial_key(read_record(path), seed=0) for path in mine["record_path"]} - {None}
     have = set(zip(own["task"], own["seed"], strict=True)) if len(own) else set()
     held = levers[(levers["seeds"] == "held out") & levers["counted"]]
     rows = []
     for i, r in held.iterrows():
-        if (r["task"], r["seed"]) not in have and _trial_key(read(r["record_path"]), seed=0) in keys:
+        if (r["task"], r["seed"]) not in have and _trial_key(read_record(r["record_path"]), seed=0) in keys:
             rows.append(i)
             have.add((r["task"], r["seed"]))
     return held.loc[rows].assign(stand_in=held.loc[rows, "lever"], variant=METHOD)
@@ -1977,15 +1981,14 @@ def reproduced(study, df: pd.DataFrame) -> str:
     levers = lever_frame(study)
     if not len(mine) or not len(levers):
         return ""
-    read = lambda path: json.loads(Path(path).read_text())  # noqa: E731
     by_key = {}
     for path, lever in zip(levers["record_path"], levers["lever"], strict=True):
-        record = read(path)
+        record = read_record(path)
         if (key := _trial_key(record)) is not None:
             by_key.setdefault(key, (record, lever))
     same, names, n = 0, set(), 0
     for path in mine["record_path"]:
-        a = read(path)
+        a = read_record(path)
         if (found := by_key.get(_trial_key(a))) is None:
             continue
         n += 1
