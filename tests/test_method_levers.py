@@ -224,6 +224,53 @@ def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced(
     problem.engine.close()
 
 
+def test_step_budget_cuts_the_samples_to_the_rollout_steps_a_plan_may_run():
+    """planner.step_budget: a plan draws at most ``step_budget // steps`` samples (in the acquire window as
+    after it) and a latency model prices the cut plan; a budget the plan fits in changes nothing,
+    the same draws as without it."""
+    problem = PointMassProblem(sigma=0.4)
+    cut = PredictiveSampling(
+        num_samples=8, horizon=0.5, acquire_samples=20, acquire_until=0.2, step_budget=600
+    )
+    roomy = PredictiveSampling(
+        num_samples=8, horizon=0.5, acquire_samples=20, acquire_until=0.2, step_budget=10**6
+    )
+    off = PredictiveSampling(num_samples=8, horizon=0.5, acquire_samples=20, acquire_until=0.2)
+    for p in (cut, roomy, off):
+        problem.bind(p)
+        p.problem.first_contact = 0.1
+    per_plan = 600 // cut.steps  # between the 8 samples after the acquire window and its 20
+    assert 8 < per_plan < 20
+    assert [cut.samples_at(t) for t in (0.0, 0.5)] == [per_plan, 8]
+    assert [roomy.samples_at(t) for t in (0.0, 0.5)] == [20, 8] == [off.samples_at(t) for t in (0.0, 0.5)]
+    sizes = []
+    real = cut.evaluate
+
+    def evaluate(state, t, thetas):
+        sizes.append(len(thetas))
+        return real(state, t, thetas)
+
+    cut.evaluate = evaluate
+    cut.plan(0.0, problem.state, np.random.default_rng(0))
+    assert sizes == [per_plan]
+    roomy.theta[:] = off.theta
+    a = roomy.plan(0.0, problem.state, np.random.default_rng(3))
+    b = off.plan(0.0, problem.state, np.random.default_rng(3))
+    np.testing.assert_array_equal(roomy.theta, off.theta)
+    assert a.best_cost == b.best_cost
+    priced = PredictiveSampling(
+        num_samples=8,
+        horizon=0.5,
+        acquire_samples=20,
+        acquire_until=0.2,
+        step_budget=600,
+        latency_model=ComputeLatency(sample_step_seconds=1e-4, threads=1),
+    )
+    problem.bind(priced)
+    assert priced.rollouts_per_plan() == per_plan
+    problem.engine.close()
+
+
 def test_approach_reset_puts_the_committed_points_back_to_the_reference_before_the_first_contact(scene_for):
     """planner.approach_reset: at the first plan at or after that many seconds before the first expected
     contact, the committed control points whose support meets the rest of the trial go back to the

@@ -387,7 +387,8 @@ def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
 
 def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(compose):
     """rollout=paper (the default) composes the same config as no choice; rollout=fine halves the planning
-    model's step and leaves the plant's; the scene it builds steps its planning model at 5 ms."""
+    model's step and leaves the plant's; the scene it builds steps its planning model at 5 ms;
+    rollout=fine_budget steps it at 5 ms within the paper point's rollout steps a plan."""
     base = compose(["task=apple"])
     assert compose(["task=apple", "rollout=paper"]) == base
     fine = compose(["task=apple", "rollout=fine"])
@@ -396,3 +397,7 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     scene = build_scene(("task=apple", "rollout=fine"))
     assert scene.planner_model.opt.timestep == 0.005
     assert scene.plant_model.opt.timestep == build_scene(("task=apple",)).plant_model.opt.timestep
+    budget = compose(["task=apple", "rollout=fine_budget"])
+    assert budget.scene.planner_timestep == 0.005
+    # the paper point's plan: 128 samples x 250 steps of 10 ms
+    assert budget.planner.step_budget == 128 * 250

@@ -117,6 +117,9 @@ class Planner:
             grasp is won or lost: the paper point's 128 samples lift it, 32 rarely); ``None`` (the
             paper): ``num_samples`` throughout. A latency model prices the larger plan.
         acquire_until: seconds after the first expected contact that ``acquire_samples`` lasts.
+        step_budget: the rollout steps one plan may run per iteration (samples x the horizon's
+            planning-model steps): a plan draws at most ``step_budget // steps`` samples (at least 1),
+            so a finer planning model draws fewer; ``None`` (the paper): no budget.
         approach_reset: seconds before the reference's first expected contact at which the committed
             control points whose support meets the rest of the trial go back to the reference's own
             (the problem's ``theta0``), once: the hand meets the object with the reference's nominal,
@@ -184,6 +187,7 @@ class Planner:
         compensate_latency: bool = False,
         acquire_samples: Annotated[int, Ge(1)] | None = None,
         acquire_until: float = 2.0,
+        step_budget: Annotated[int, Ge(1)] | None = None,
         approach_reset: Annotated[float, Ge(0)] | None = None,
         guidance: ObjectGuidance | None = None,
         pace_lag: Annotated[float, Gt(0)] | None = None,
@@ -244,6 +248,7 @@ class Planner:
         self.compensate_latency = bool(compensate_latency)
         self.acquire_samples = None if acquire_samples is None else int(acquire_samples)
         self.acquire_until = float(acquire_until)
+        self.step_budget = None if step_budget is None else int(step_budget)
         self.approach_reset = None if approach_reset is None else float(approach_reset)
         self._plan_samples: int | None = None  # the samples of the plan being made (samples_at)
         self._noise_scale: np.ndarray | None = None  # (Mw, 1) factor on the noise being drawn, or None
@@ -331,7 +336,7 @@ class Planner:
         ensemble's models; 0 for a planner without rollouts."""
         if not self.needs_rollouts:
             return 0
-        per_iteration = max(self.num_samples, self.acquire_samples or 0) + self.extra_rollouts
+        per_iteration = self._budgeted(max(self.num_samples, self.acquire_samples or 0)) + self.extra_rollouts
         return self.iterations * per_iteration * (len(self._models) if self._models else 1)
 
     def close(self) -> None:
@@ -560,11 +565,17 @@ class Planner:
 
     def samples_at(self, t: float) -> int:
         """The samples a plan at control time ``t`` draws: ``acquire_samples`` until ``acquire_until``
-        after the first expected contact, else ``num_samples``."""
+        after the first expected contact, else ``num_samples``; either cut to ``step_budget``."""
         first = getattr(self.problem, "first_contact", None)
         if self.acquire_samples is None or first is None or t >= first + self.acquire_until - 1e-9:
-            return self.num_samples
-        return self.acquire_samples
+            return self._budgeted(self.num_samples)
+        return self._budgeted(self.acquire_samples)
+
+    def _budgeted(self, samples: int) -> int:
+        """``samples`` cut to what ``step_budget`` allows at the bound horizon's steps."""
+        if self.step_budget is None:
+            return samples
+        return max(1, min(samples, self.step_budget // self.steps))
 
     def _plan(self, t: float, state: np.ndarray, rng: np.random.Generator, start: float) -> PlanInfo:
         if not self.needs_rollouts:
