@@ -35,6 +35,8 @@ QUESTION = (
 TITLE = "The method: one method for the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
+    "python launch.py experiment=method variant=grasp_held_eased rollout=fine_budget "
+    "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine "
     "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased retarget=wrist "
@@ -52,6 +54,7 @@ HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
 ORDER = (
+    "grasp_held_eased+rollout=fine_budget",
     "grasp_held_eased+rollout=fine",
     "grasp_held_eased+retarget=wrist",
     "grasp_held_eased",
@@ -1688,6 +1691,60 @@ def _lifts(study) -> str:
     return lift_replays(pd.read_csv(path)) if path is not None and path.is_file() else "Not replayed yet.\n"
 
 
+PLAN_COSTS = "plan_benchmark.csv"
+
+
+def plan_costs(rows: pd.DataFrame) -> str:
+    """What one plan costs per planning model (:data:`PLAN_COSTS`'s rows: ``task``, ``rollout``, ``state``,
+    ``plan_cpu_seconds``, ``horizon_steps``, ``planning_timestep``; ``studies/method/plan_benchmark.py``):
+    per task and state the CPU seconds of a planning iteration, and each model's against the method's own
+    (``rollout=paper``) at the approach, where the method draws its largest plan (the paper point's 128
+    samples, the plan the calibrated latency prices)."""
+    if not len(rows):
+        return ""
+    rollouts = list(dict.fromkeys(rows["rollout"]))
+    out = [
+        "`job=benchmark` of each paper task's default method with each planning model, one thread, at the "
+        "states of a replay of the reference (`python studies/method/plan_benchmark.py`, on a quiet core): "
+        "*approach* (half-way to the first expected contact, inside the acquire window: `effort=acquire`'s "
+        "128 samples a plan) and *contact* (the middle of the contact span, after it: 32). CPU seconds of "
+        "one planning iteration; in brackets, against the method's own plan at the approach (the paper "
+        "point's plan, which the calibrated 170 ms prices).\n\n"
+        "| task | state | " + " | ".join(f"`rollout={r}`" for r in rollouts) + " |\n"
+        "|---|---|" + "--:|" * len(rollouts) + "\n"
+    ]
+    worst = {}
+    for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        mine = rows[rows["task"] == task].set_index(["rollout", "state"])["plan_cpu_seconds"]
+        if ("paper", "approach") not in mine.index:
+            continue
+        paper_point = mine[("paper", "approach")]
+        for state in ("approach", "contact"):
+            cells = []
+            for r in rollouts:
+                if (r, state) in mine.index:
+                    ratio = mine[(r, state)] / paper_point
+                    worst[r] = max(worst.get(r, 0.0), ratio)
+                    cells.append(f"{mine[(r, state)]:.2f} ({ratio:.2f}x)")
+                else:
+                    cells.append("")
+            out.append(f"| {task.removeprefix('paper_')} | {state} | " + " | ".join(cells) + " |\n")
+    out.append(
+        "\nThe largest plan of each, against the method's largest plan on the same task: "
+        + "; ".join(f"`rollout={r}` {v:.2f}x" for r, v in worst.items())
+        + ". A model whose plans never exceed 1x fits the latency the trials are charged (the preset's 170 ms"
+        "); one above it would be applied later on the paper's 7 threads than its trials assume.\n"
+    )
+    return "".join(out)
+
+
+def _plan_costs(study) -> str:
+    path = None if study is None else study.dir / "figures" / PLAN_COSTS
+    if path is None or not path.is_file():
+        return "Not benchmarked yet (`python studies/method/plan_benchmark.py`).\n"
+    return plan_costs(pd.read_csv(path))
+
+
 def shortfall(df: pd.DataFrame, study=None) -> str:
     """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
     milestones they missed, when the failure rule fired) and those completed but not settled (the object
@@ -2087,6 +2144,8 @@ def report(study) -> str:
         + levers_section(study, df)
         + "\n## The planning model and the lift\n\n"
         + _lifts(study)
+        + "\n## What a plan costs with each planning model\n\n"
+        + _plan_costs(study)
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
         + "\n## Letting go\n\n"
