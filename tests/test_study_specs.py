@@ -651,6 +651,30 @@ def test_the_method_study_reads_the_replayed_lifts_per_task_and_planning_model()
     assert spec.lift_replays(df.iloc[0:0]) == ""
 
 
+def test_the_method_study_sets_each_planning_model_s_plan_against_the_method_s_largest() -> None:
+    """plan_costs: per task and state, a plan's CPU seconds and its ratio to the method's own plan at the
+    approach (rollout=paper's, the largest it draws); the largest ratio of each model; a task without the
+    method's approach plan is left out; nothing without rows."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    cost = {("paper", "approach"): 1.6, ("paper", "contact"): 0.4, ("fine_budget", "approach"): 1.2,
+            ("fine_budget", "contact"): 0.8, ("fine", "approach"): 3.2, ("fine", "contact"): 0.8}  # fmt: skip
+    df = pd.DataFrame(
+        [
+            {"task": "paper_stapler", "rollout": r, "state": st, "plan_cpu_seconds": c}
+            for (r, st), c in cost.items()
+        ]
+        + [{"task": "paper_apple", "rollout": "fine", "state": "approach", "plan_cpu_seconds": 9.0}]
+    )
+    text = spec.plan_costs(df)
+    assert "| stapler | approach | 1.60 (1.00x) | 1.20 (0.75x) | 3.20 (2.00x) |" in text
+    assert "| stapler | contact | 0.40 (0.25x) | 0.80 (0.50x) | 0.80 (0.50x) |" in text
+    assert "| apple |" not in text
+    assert "`rollout=paper` 1.00x; `rollout=fine_budget` 0.75x; `rollout=fine` 2.00x." in text
+    assert spec.plan_costs(df.iloc[0:0]) == ""
+
+
 def test_the_method_study_sets_a_lever_against_the_lever_it_builds_on() -> None:
     """stacked: a lever whose overrides contain another's stands against it on the seeds both ran, per
     task and in all; levers that do not build on one another, none."""
