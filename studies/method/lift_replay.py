@@ -24,8 +24,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-import pandas as pd
-from release_replay import recorded_target, scene_of  # this folder's script
+from release_replay import recorded_target, scene_of, write_rows  # this folder's script
 
 from contactmpc.labels import method_name
 
@@ -135,8 +134,7 @@ def main() -> int:
     if not rows:
         print("lift_replay: error: no trial of the method with its time series", file=sys.stderr)
         return 1
-    CSV.parent.mkdir(parents=True, exist_ok=True)
-    pd.DataFrame(rows).to_csv(CSV, index=False, float_format="%.6g")
+    write_rows(rows, CSV)
     for task, kept in curves.items():
         if kept:
             figure(kept, CSV.parent / f"lift_replay_{task.removeprefix('paper_')}.png", task)

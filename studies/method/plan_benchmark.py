@@ -19,7 +19,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-import pandas as pd
+from release_replay import write_rows  # this folder's script
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
@@ -56,8 +56,7 @@ def main() -> int:
                     print(
                         f"{task} rollout={rollout} {row['state']}: a plan {row['plan_cpu_seconds']:.3f} CPU-s"
                     )
-    CSV.parent.mkdir(parents=True, exist_ok=True)
-    pd.DataFrame(rows).to_csv(CSV, index=False, float_format="%.6g")
+    write_rows(rows, CSV)
     print(f"wrote {CSV}")
     return 0
 

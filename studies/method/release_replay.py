@@ -86,6 +86,12 @@ def scene_of(
     return instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))
 
 
+def write_rows(rows: list[dict], path: Path) -> None:
+    """Write a script's rows to its CSV (``path``, its folder made where missing), as the report reads it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pd.DataFrame(rows).to_csv(path, index=False, float_format="%.6g")
+
+
 def recorded_target(series, at_time: float) -> np.ndarray:
     """The hand targets a trial's time series (``time``, ``hand_target``) had applied at ``at_time``: the
     last sample at or before it."""
@@ -168,8 +174,7 @@ def main() -> int:
     if not rows:
         print("release_replay: error: no doorknob trial of the method with its time series", file=sys.stderr)
         return 1
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    pd.DataFrame(rows).to_csv(OUT, index=False, float_format="%.6g")
+    write_rows(rows, OUT)
     print(f"wrote {OUT}")
     return 0
 
