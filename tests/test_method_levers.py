@@ -189,6 +189,19 @@ def test_start_and_end_relative_to_the_first_contact(tmp_path, late_contact_refe
         run_job(overrides + ["job.start_time=1", "job.start_before_contact=1"], tmp_path / "both")
 
 
+def count_candidates(planner) -> list[int]:
+    """The candidates each of ``planner``'s evaluations rolls out, appended as it plans."""
+    sizes = []
+    real = planner.evaluate
+
+    def evaluate(state, t, thetas):
+        sizes.append(len(thetas))
+        return real(state, t, thetas)
+
+    planner.evaluate = evaluate
+    return sizes
+
+
 def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced():
     """planner.acquire_samples: a plan before ``acquire_until`` after the first expected contact rolls out
     that many candidates, one after it ``num_samples``; off (None), ``num_samples`` everywhere, the same
@@ -199,14 +212,7 @@ def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced(
     problem.bind(planner)
     problem.bind(off)
     planner.problem.first_contact = off.problem.first_contact = 0.1
-    sizes = []
-    real = planner.evaluate
-
-    def evaluate(state, t, thetas):
-        sizes.append(len(thetas))
-        return real(state, t, thetas)
-
-    planner.evaluate = evaluate
+    sizes = count_candidates(planner)
     for t in (0.0, 0.29, 0.3, 0.5):
         planner.plan(t, problem.state, np.random.default_rng(0))
     assert sizes == [20, 20, 8, 8]
@@ -243,14 +249,7 @@ def test_step_budget_cuts_the_samples_to_the_rollout_steps_a_plan_may_run():
     assert 8 < per_plan < 20
     assert [cut.samples_at(t) for t in (0.0, 0.5)] == [per_plan, 8]
     assert [roomy.samples_at(t) for t in (0.0, 0.5)] == [20, 8] == [off.samples_at(t) for t in (0.0, 0.5)]
-    sizes = []
-    real = cut.evaluate
-
-    def evaluate(state, t, thetas):
-        sizes.append(len(thetas))
-        return real(state, t, thetas)
-
-    cut.evaluate = evaluate
+    sizes = count_candidates(cut)
     cut.plan(0.0, problem.state, np.random.default_rng(0))
     assert sizes == [per_plan]
     roomy.theta[:] = off.theta
@@ -258,13 +257,9 @@ def test_step_budget_cuts_the_samples_to_the_rollout_steps_a_plan_may_run():
     b = off.plan(0.0, problem.state, np.random.default_rng(3))
     np.testing.assert_array_equal(roomy.theta, off.theta)
     assert a.best_cost == b.best_cost
+    model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
     priced = PredictiveSampling(
-        num_samples=8,
-        horizon=0.5,
-        acquire_samples=20,
-        acquire_until=0.2,
-        step_budget=600,
-        latency_model=ComputeLatency(sample_step_seconds=1e-4, threads=1),
+        num_samples=8, horizon=0.5, acquire_samples=20, step_budget=600, latency_model=model
     )
     problem.bind(priced)
     assert priced.rollouts_per_plan() == per_plan
