@@ -675,6 +675,26 @@ def test_the_method_study_sets_each_planning_model_s_plan_against_the_method_s_l
     assert spec.plan_costs(df.iloc[0:0]) == ""
 
 
+def test_the_method_study_sets_each_finer_planning_model_beside_the_method_on_the_same_seeds() -> None:
+    """finer_models: per task, each ``+rollout=`` method on top of the method against the method's trials on
+    the seeds it ran (a seed the method lacks is left out); nothing without such trials."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    fine = f"{spec.METHOD}+rollout=fine"
+    rows = [(spec.METHOD, s, s < 3, s < 2) for s in range(4)] + [
+        (fine, s, True, s != 1) for s in (0, 1, 3, 5)
+    ]
+    df = pd.DataFrame([{"task": "stapler", "variant": v, "seed": s, "counted": True, "completed": c,
+                        "finished_cleanly": f} for v, s, c, f in rows])  # fmt: skip
+    text = spec.finer_models(df)
+    assert (
+        "- **stapler**: `rollout=fine` completes 3 of 3 and finishes 2 cleanly, against 2 and 2 (seeds 0, 1"
+        in text
+    )
+    assert spec.finer_models(df[df["variant"] == spec.METHOD]) == ""
+
+
 def test_the_method_study_sets_a_lever_against_the_lever_it_builds_on() -> None:
     """stacked: a lever whose overrides contain another's stands against it on the seeds both ran, per
     task and in all; levers that do not build on one another, none."""

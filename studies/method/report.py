@@ -1686,6 +1686,40 @@ def lift_replays(rows: pd.DataFrame) -> str:
     return "".join(out)
 
 
+def finer_models(df: pd.DataFrame) -> str:
+    """Per task, each method of :data:`ORDER` that plans :data:`METHOD` with another planning model (a
+    ``+rollout=`` member on top of it) against :data:`METHOD` on the same seeds: completed and finished
+    cleanly (the tests are in *Each step, on the same seeds*)."""
+    ok = counted(df)
+    finer = [m for m in ORDER if m.startswith(f"{METHOD}+rollout=")]
+    lines = []
+    for task in ordered(ok["task"].unique(), TASK_ORDER) if len(ok) else []:
+        base = cell(ok, task, METHOD).set_index("seed")
+        parts = []
+        for m in finer:
+            mine = cell(ok, task, m)
+            mine = mine[mine["seed"].isin(base.index)]
+            if not len(mine):
+                continue
+            theirs = base.loc[mine["seed"]]
+            n = len(mine)
+            parts.append(
+                f"`{m.removeprefix(METHOD + '+')}` completes {of(int(mine['completed'].sum()), n)} and "
+                f"finishes {int(mine['finished_cleanly'].sum())} cleanly, against "
+                f"{int(theirs['completed'].sum())} and {int(theirs['finished_cleanly'].sum())} (seeds "
+                f"{seeds(sorted(mine['seed']))})"
+            )
+        if parts:
+            lines.append(f"- **{task}**: " + "; ".join(parts))
+    if not lines:
+        return ""
+    return (
+        f"\nThe full trials with a finer planning model than `{METHOD}`'s, against it on the same seeds:\n\n"
+        + ";\n".join(lines)
+        + ".\n"
+    )
+
+
 def _lifts(study) -> str:
     path = None if study is None else study.dir / "figures" / LIFTS
     return lift_replays(pd.read_csv(path)) if path is not None and path.is_file() else "Not replayed yet.\n"
@@ -2144,6 +2178,7 @@ def report(study) -> str:
         + levers_section(study, df)
         + "\n## The planning model and the lift\n\n"
         + _lifts(study)
+        + finer_models(df)
         + "\n## What a plan costs with each planning model\n\n"
         + _plan_costs(study)
         + "\n## What holds the carried object\n\n"
