@@ -651,27 +651,36 @@ def test_the_method_study_reads_the_replayed_lifts_per_task_and_planning_model()
     assert spec.lift_replays(df.iloc[0:0]) == ""
 
 
-def test_the_method_study_sets_each_planning_model_s_plan_against_the_method_s_largest() -> None:
-    """plan_costs: per task and state, a plan's CPU seconds and its ratio to the method's own plan at the
-    approach (rollout=paper's, the largest it draws); the largest ratio of each model; a task without the
-    method's approach plan is left out; nothing without rows."""
+def test_the_method_study_sets_each_planning_model_s_plan_against_the_paper_point_s_at_the_same_state() -> (
+    None
+):
+    """plan_costs: per task and state, a plan's CPU seconds, samples x steps, CPU a sample-step, and its
+    ratio to the paper point's plan at that state (128 x 250 sample-steps at rollout=paper's cost there);
+    the largest ratio of each model; a state without rollout=paper's plan is left out; nothing without
+    rows."""
     import pandas as pd
 
     spec = Study("method").spec
-    cost = {("paper", "approach"): 1.6, ("paper", "contact"): 0.4, ("fine_budget", "approach"): 1.2,
-            ("fine_budget", "contact"): 0.8, ("fine", "approach"): 3.2, ("fine", "contact"): 0.8}  # fmt: skip
+    # (rollout, state): CPU-s, samples, steps; rollout=paper: 50 us a sample-step approaching, 100 in contact
+    plans = {("paper", "approach"): (1.6, 128, 250), ("paper", "contact"): (0.8, 32, 250),
+             ("fine_budget", "approach"): (1.28, 64, 500), ("fine_budget", "contact"): (1.6, 32, 500),
+             ("fine", "approach"): (3.2, 128, 500)}  # fmt: skip
     df = pd.DataFrame(
-        [
-            {"task": "paper_stapler", "rollout": r, "state": st, "plan_cpu_seconds": c}
-            for (r, st), c in cost.items()
-        ]
-        + [{"task": "paper_apple", "rollout": "fine", "state": "approach", "plan_cpu_seconds": 9.0}]
-    )
+        [{"task": "paper_stapler", "rollout": r, "state": st, "plan_cpu_seconds": c, "plan_samples": n,
+          "horizon_steps": h} for (r, st), (c, n, h) in plans.items()]
+        + [{"task": "paper_apple", "rollout": "fine", "state": "approach", "plan_cpu_seconds": 9.0,
+            "plan_samples": 128, "horizon_steps": 500}]
+    )  # fmt: skip
     text = spec.plan_costs(df)
-    assert "| stapler | approach | 1.60 (1.00x) | 1.20 (0.75x) | 3.20 (2.00x) |" in text
-    assert "| stapler | contact | 0.40 (0.25x) | 0.80 (0.50x) | 0.80 (0.50x) |" in text
+    assert (
+        "| stapler | approach | 1.60 s; 128 x 250; 50 us; 1.00x | 1.28 s; 64 x 500; 40 us; 0.80x | "
+        "3.20 s; 128 x 500; 50 us; 2.00x |" in text
+    )
+    assert (
+        "| stapler | contact | 0.80 s; 32 x 250; 100 us; 0.25x | 1.60 s; 32 x 500; 100 us; 0.50x |  |" in text
+    )
     assert "| apple |" not in text
-    assert "`rollout=paper` 1.00x; `rollout=fine_budget` 0.75x; `rollout=fine` 2.00x." in text
+    assert "`rollout=paper` 1.00x; `rollout=fine_budget` 0.80x; `rollout=fine` 2.00x." in text
     assert spec.plan_costs(df.iloc[0:0]) == ""
 
 

@@ -13,7 +13,8 @@ may have lost the object. At each state the job measures, per thread count:
 - one physics step of the plant model and of the planning model from that state (wall and CPU time per
   step over runs of the same simulated time, timed interleaved, median), with the state's ``ncon`` and
   ``nefc``;
-- a planning iteration (sampling, spline -> controls, rollout, cost, update) and the bare
+- a planning iteration (sampling, spline -> controls, rollout, cost, update; ``plan_samples``: the samples
+  it draws at the state's time, :meth:`~contactmpc.control.planners.base.Planner.samples_at`) and the bare
   ``mujoco.rollout`` of the same controls, **interleaved** (plan, rollout, plan, rollout, ...) so that
   load on the machine hits both alike; the median wall time and the median CPU time (the process's,
   over all threads) of each, their ratio (the planner's overhead) and the speed-up from the first
@@ -336,6 +337,7 @@ def benchmark_planner(
                     "planning_model_step_us": 1e6 * model["wall"],
                     "planning_model_step_cpu_us": 1e6 * model["cpu"],
                     "nthread": nthread,
+                    "plan_samples": planner.samples_at(t),
                     "plan_seconds": timed["plan"]["wall"],
                     "plan_cpu_seconds": timed["plan"]["cpu"],
                     "rollout_seconds": timed["rollout"]["wall"],

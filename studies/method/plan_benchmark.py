@@ -4,7 +4,7 @@ states of a replay of the reference (``job.visit=replay``: the approach, inside 
 ``effort=acquire`` draws 128 samples a plan, and the middle of the contact span, after it, 32).
 
 Writes ``figures/plan_benchmark.csv`` (one row per task, planning model and state: the CPU seconds of one
-planning iteration and of a bare rollout of its samples, the steps a rollout runs), which the report reads.
+planning iteration, the samples it draws and the steps each rollout runs), which the report reads.
 Run it on a quiet machine (nothing else running): it times CPU.
 
     CONTACTMPC_PAPER_DATA=... python studies/method/plan_benchmark.py
@@ -50,6 +50,7 @@ def main() -> int:
                     rows.append({"task": task, "rollout": rollout, "state": row["state"],
                                  "planning_timestep": result["planning_timestep"],
                                  "horizon_steps": result["horizon_steps"],
+                                 "plan_samples": row["plan_samples"],
                                  "plan_cpu_seconds": row["plan_cpu_seconds"],
                                  "rollout_cpu_seconds": row["rollout_cpu_seconds"],
                                  "num_samples": result["num_samples"]})  # fmt: skip

@@ -1728,46 +1728,59 @@ def _lifts(study) -> str:
 PLAN_COSTS = "plan_benchmark.csv"
 
 
+#: The paper point's plan, samples x rollout steps (128 x 2.5 s of 10 ms): what the calibrated latency prices.
+PAPER_PLAN = (128, 250)
+
+
 def plan_costs(rows: pd.DataFrame) -> str:
     """What one plan costs per planning model (:data:`PLAN_COSTS`'s rows: ``task``, ``rollout``, ``state``,
-    ``plan_cpu_seconds``, ``horizon_steps``, ``planning_timestep``; ``studies/method/plan_benchmark.py``):
-    per task and state the CPU seconds of a planning iteration, and each model's against the method's own
-    (``rollout=paper``) at the approach, where the method draws its largest plan (the paper point's 128
-    samples, the plan the calibrated latency prices)."""
+    ``plan_cpu_seconds``, ``plan_samples``, ``horizon_steps``; ``studies/method/plan_benchmark.py``): per
+    task and state, a planning iteration's CPU seconds, its samples x steps, the CPU a sample-step costs,
+    and the plan against the paper point's plan at the same state (:data:`PAPER_PLAN` at ``rollout=paper``'s
+    cost a sample-step there, the plan the calibrated latency prices); then each model's largest ratio."""
     if not len(rows):
         return ""
+    rows = rows.assign(
+        step_us=1e6 * rows["plan_cpu_seconds"] / (rows["plan_samples"] * rows["horizon_steps"])
+    )
     rollouts = list(dict.fromkeys(rows["rollout"]))
+    samples, steps = PAPER_PLAN
     out = [
         "`job=benchmark` of each paper task's default method with each planning model, one thread, at the "
-        "states of a replay of the reference (`python studies/method/plan_benchmark.py`, on a quiet core): "
-        "*approach* (half-way to the first expected contact, inside the acquire window: `effort=acquire`'s "
-        "128 samples a plan) and *contact* (the middle of the contact span, after it: 32). CPU seconds of "
-        "one planning iteration; in brackets, against the method's own plan at the approach (the paper "
-        "point's plan, which the calibrated 170 ms prices).\n\n"
+        "states of a replay of the reference (`python studies/method/plan_benchmark.py`): *approach* (half-"
+        "way to the first expected contact, inside the acquire window where `effort=acquire` draws 128 "
+        "samples a plan) and *contact* (the middle of the contact span, after it: 32). Each cell: the CPU "
+        "seconds of one planning iteration; its samples x rollout steps; the CPU a sample-step costs (us); "
+        f"and the plan against the paper point's plan at the same state ({samples} samples x {steps} steps "
+        "at `rollout=paper`'s cost a sample-step there: the plan the calibrated 170 ms prices).\n\n"
         "| task | state | " + " | ".join(f"`rollout={r}`" for r in rollouts) + " |\n"
         "|---|---|" + "--:|" * len(rollouts) + "\n"
     ]
     worst = {}
     for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
-        mine = rows[rows["task"] == task].set_index(["rollout", "state"])["plan_cpu_seconds"]
-        if ("paper", "approach") not in mine.index:
-            continue
-        paper_point = mine[("paper", "approach")]
+        mine = rows[rows["task"] == task].set_index(["rollout", "state"])
         for state in ("approach", "contact"):
+            if ("paper", state) not in mine.index:
+                continue
+            paper_plan = samples * steps * mine.loc[("paper", state), "step_us"] * 1e-6
             cells = []
             for r in rollouts:
-                if (r, state) in mine.index:
-                    ratio = mine[(r, state)] / paper_point
-                    worst[r] = max(worst.get(r, 0.0), ratio)
-                    cells.append(f"{mine[(r, state)]:.2f} ({ratio:.2f}x)")
-                else:
+                if (r, state) not in mine.index:
                     cells.append("")
+                    continue
+                row = mine.loc[(r, state)]
+                ratio = row["plan_cpu_seconds"] / paper_plan
+                worst[r] = max(worst.get(r, 0.0), ratio)
+                size = f"{int(row['plan_samples'])} x {int(row['horizon_steps'])}"
+                cells.append(
+                    f"{row['plan_cpu_seconds']:.2f} s; {size}; {row['step_us']:.0f} us; {ratio:.2f}x"
+                )
             out.append(f"| {task.removeprefix('paper_')} | {state} | " + " | ".join(cells) + " |\n")
     out.append(
-        "\nThe largest plan of each, against the method's largest plan on the same task: "
+        "\nThe largest plan of each against the paper point's plan at the same state: "
         + "; ".join(f"`rollout={r}` {v:.2f}x" for r, v in worst.items())
-        + ". A model whose plans never exceed 1x fits the latency the trials are charged (the preset's 170 ms"
-        "); one above it would be applied later on the paper's 7 threads than its trials assume.\n"
+        + ". A model whose plans stay at or under 1x fits the latency its trials are charged (the preset's "
+        "170 ms); one above it would be applied later on the paper's 7 threads than its trials assume.\n"
     )
     return "".join(out)
 
