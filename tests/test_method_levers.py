@@ -202,6 +202,16 @@ def count_candidates(planner) -> list[int]:
     return sizes
 
 
+def assert_plans_alike(planner, other, t: float, state) -> None:
+    """From ``planner``'s nominal, a plan of ``other`` at ``t`` commits what ``planner``'s does, bit for bit
+    (the same draws, the same best cost)."""
+    other.theta[:] = planner.theta
+    a = planner.plan(t, state, np.random.default_rng(3))
+    b = other.plan(t, state, np.random.default_rng(3))
+    np.testing.assert_array_equal(planner.theta, other.theta)
+    assert a.best_cost == b.best_cost
+
+
 def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced():
     """planner.acquire_samples: a plan before ``acquire_until`` after the first expected contact rolls out
     that many candidates, one after it ``num_samples``; off (None), ``num_samples`` everywhere, the same
@@ -218,11 +228,7 @@ def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced(
     assert sizes == [20, 20, 8, 8]
     assert [planner.samples_at(t) for t in (0.0, 0.3)] == [20, 8] and off.samples_at(0.0) == 8
     # after the window the plan is the one without the option, bit for bit (same nominal, same draws)
-    off.theta[:] = planner.theta
-    a = planner.plan(0.5, problem.state, np.random.default_rng(3))
-    b = off.plan(0.5, problem.state, np.random.default_rng(3))
-    np.testing.assert_array_equal(planner.theta, off.theta)
-    assert a.best_cost == b.best_cost
+    assert_plans_alike(planner, off, 0.5, problem.state)
     model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
     priced = PredictiveSampling(num_samples=8, horizon=0.5, acquire_samples=20, latency_model=model)
     problem.bind(priced)
@@ -252,11 +258,7 @@ def test_step_budget_cuts_the_samples_to_the_rollout_steps_a_plan_may_run():
     sizes = count_candidates(cut)
     cut.plan(0.0, problem.state, np.random.default_rng(0))
     assert sizes == [per_plan]
-    roomy.theta[:] = off.theta
-    a = roomy.plan(0.0, problem.state, np.random.default_rng(3))
-    b = off.plan(0.0, problem.state, np.random.default_rng(3))
-    np.testing.assert_array_equal(roomy.theta, off.theta)
-    assert a.best_cost == b.best_cost
+    assert_plans_alike(roomy, off, 0.0, problem.state)
     model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
     priced = PredictiveSampling(
         num_samples=8, horizon=0.5, acquire_samples=20, step_budget=600, latency_model=model
