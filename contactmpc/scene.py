@@ -509,6 +509,27 @@ class Scene:
         mat = self.spec.add_material(name="floor_mat", texrepeat=[6, 6], reflectance=0.1)
         mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "floor_tex"
 
+    def stepped(self, timestep: float) -> Scene:
+        """This scene with its planning model compiled at another ``timestep`` (s), with the same planner
+        options and planning cuts; the plant model, the spec and the index are shared.
+
+        Args:
+            timestep: the planning model's step (s), at least the plant's.
+
+        Raises:
+            SceneError: a step below the plant's.
+        """
+        if not self.plant_timestep <= timestep:
+            raise SceneError(f"planning step {timestep:g} s is below the plant's ({self.plant_timestep:g} s)")
+        other = copy.copy(self)
+        other.planner_timestep = timestep
+        other.planner_model = self._compile(timestep)
+        set_options(other.planner_model.opt, self.planner_options)
+        other.exact_planner_model = other.planner_model
+        if self.planning_cuts:
+            other.planner_model = planning_model(other, **self.planning_cuts)
+        return other
+
     def _compile(self, timestep: float) -> mujoco.MjModel:
         self.spec.option.timestep = timestep
         return self.spec.compile()

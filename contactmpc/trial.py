@@ -36,18 +36,24 @@ TIMING_TOLERANCE = 1e-9  # s: how far a period may be from a whole number of pla
 
 
 def check_timing(
-    plant_timestep: float, planner_timestep: float, horizon: float, replan_period: float, latency: float
+    plant_timestep: float,
+    planner_timestep: float,
+    horizon: float,
+    replan_period: float,
+    latency: float,
+    step_name: str = "scene.planner_timestep",
 ) -> None:
     """Refuse timing a loop can only round: each value must be what the loop will really use.
 
     ``planner_timestep``, ``replan_period`` and ``latency`` must be whole multiples of the plant step
     (within :data:`TIMING_TOLERANCE`; ``latency`` may be 0), and the horizon at least one planning step.
+    ``step_name``: the planning step's name in the message.
 
     Raises:
         ConfigError: one line naming the values.
     """
     for name, value in (
-        ("scene.planner_timestep", planner_timestep),
+        (step_name, planner_timestep),
         ("planner.replan_period", replan_period),
         ("planner.latency", latency),
     ):
@@ -61,19 +67,25 @@ def check_timing(
     if horizon < planner_timestep - TIMING_TOLERANCE:
         raise ConfigError(
             f"planner.horizon = {horizon:g} s is shorter than one planning step "
-            f"(scene.planner_timestep = {planner_timestep:g} s)"
+            f"({step_name} = {planner_timestep:g} s)"
         )
 
 
 def check_planner_timing(scene: Scene, planner: Planner) -> None:
-    """:func:`check_timing` of a planner's horizon, replan period and fixed latency on a scene."""
-    check_timing(
-        scene.plant_model.opt.timestep,
-        scene.planner_timestep,
-        planner.horizon,
-        planner.replan_period,
-        planner.latency,
-    )
+    """:func:`check_timing` of a planner's horizon, replan period and fixed latency on a scene (and on
+    the planner's second planning model, ``planner.switch_timestep``, where it has one)."""
+    steps = [("scene.planner_timestep", scene.planner_timestep)]
+    if planner.switch_timestep is not None:
+        steps.append(("planner.switch_timestep", planner.switch_timestep))
+    for name, step in steps:
+        check_timing(
+            scene.plant_model.opt.timestep,
+            step,
+            planner.horizon,
+            planner.replan_period,
+            planner.latency,
+            step_name=name,
+        )
 
 
 class Trial:

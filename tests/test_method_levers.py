@@ -268,6 +268,46 @@ def test_step_budget_cuts_the_samples_to_the_rollout_steps_a_plan_may_run():
     problem.engine.close()
 
 
+def test_switch_timestep_plans_on_the_finer_model_from_after_the_first_contact(
+    scene_for, late_contact_reference
+):
+    """planner.switch_timestep: plans before ``switch_after`` past the first expected contact are the plans
+    without the option, bit for bit; from then on the planner rolls out the model stepped at the switch's
+    step, on its track, and plans what a planner bound to a scene stepped there from the start plans, from
+    the same nominal; a latency model prices the larger of the two phases' plans."""
+    ref = late_contact_reference[0]
+    coarse, fine = scene_for("apple"), scene_for("apple", "scene.planner_timestep=0.005")
+    assert coarse.planner_timestep == 0.01
+
+    def bound(scene, **options):
+        planner = PredictiveSampling(num_samples=6, horizon=0.1, replan_period=0.05, nthread=1, **options)
+        trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
+        return planner, trial
+
+    switching, trial = bound(coarse, switch_timestep=0.005, switch_after=0.1)
+    off, _ = bound(coarse)
+    stepped, _ = bound(fine)
+    state = trial.start_plant().state(0.0)
+    first = trial.problem.first_contact
+    assert first > 0.1
+    before, after = first + 0.05, first + 0.1
+    assert_plans_alike(switching, off, before, state)
+    assert (switching.dt, switching.steps, switching.engine.model.opt.timestep) == (0.01, 10, 0.01)
+    assert_plans_alike(switching, stepped, after, state)  # it switches in this plan
+    assert (switching.dt, switching.steps, switching.engine.model.opt.timestep) == (0.005, 20, 0.005)
+    assert switching.problem.track.dt == 0.005 and switching.problem.cost.track is switching.problem.track
+    assert trial.problem.track.dt == 0.01  # the trial's own problem is left as it was
+    assert not switching.phase(after + 1.0)  # once
+    model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
+    priced, _ = bound(coarse, switch_timestep=0.005, latency_model=model)
+    # the finer phase's 6 samples x 20 steps, not the first's x 10
+    assert priced.latency_for(0.001) == model.seconds(6, 20, 0.001) > model.seconds(6, 10, 0.001)
+    for planner in (switching, off, stepped, priced):
+        planner.close()
+    with pytest.raises(ConfigError, match="planner.switch_timestep = 0.0055 s is not a whole number"):
+        bound(coarse, switch_timestep=0.0055)
+
+
 def test_approach_reset_puts_the_committed_points_back_to_the_reference_before_the_first_contact(scene_for):
     """planner.approach_reset: at the first plan at or after that many seconds before the first expected
     contact, the committed control points whose support meets the rest of the trial go back to the

@@ -388,7 +388,8 @@ def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
 def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(compose):
     """rollout=paper (the default) composes the same config as no choice; rollout=fine halves the planning
     model's step and leaves the plant's; the scene it builds steps its planning model at 5 ms;
-    rollout=fine_budget steps it at 5 ms within the paper point's rollout steps a plan."""
+    rollout=fine_budget steps it at 5 ms within the paper point's rollout steps a plan;
+    rollout=fine_after_grasp keeps 10 ms and switches to 5 ms 2 s after the first expected contact."""
     base = compose(["task=apple"])
     assert compose(["task=apple", "rollout=paper"]) == base
     fine = compose(["task=apple", "rollout=fine"])
@@ -401,3 +402,7 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     assert budget.scene.planner_timestep == 0.005
     # the paper point's plan: 128 samples x 250 steps of 10 ms
     assert budget.planner.step_budget == 128 * 250
+    late = compose(["task=apple", "rollout=fine_after_grasp"])
+    assert late.scene.planner_timestep == base.scene.planner_timestep  # 10 ms while the grasp is formed
+    assert (late.planner.switch_timestep, late.planner.switch_after) == (0.005, 2.0)
+    assert base.planner.switch_timestep is None

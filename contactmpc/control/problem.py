@@ -9,7 +9,8 @@ slowed reference), fits the sampler space to the reference hand curves (its nomi
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import copy
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -45,6 +46,8 @@ class Problem:
             where it sets no ``open`` / ``pause`` / ``backoff``); ``theta0`` is then the reference's
             own, so that the release nominal changes nothing before the last contact. ``None``: no
             reset.
+        reference: the demonstration the track was built from (:meth:`stepped` builds it again).
+        padding: control time the track holds its last frame past the reference's end (s).
     """
 
     scene: Scene
@@ -58,6 +61,8 @@ class Problem:
     last_contact: float | None = None
     release_theta: np.ndarray | None = None
     first_contact: float | None = None
+    reference: Reference | None = None
+    padding: float = 0.0
 
     @classmethod
     def build(
@@ -130,7 +135,27 @@ class Problem:
             last_contact=last_contact,
             release_theta=release_theta,
             first_contact=first_contact,
+            reference=reference,
+            padding=padding,
         )
+
+    def stepped(self, timestep: float) -> Problem:
+        """This problem planned on a model stepped at ``timestep`` (s): the scene's planning model compiled
+        at that step (:meth:`~contactmpc.scene.Scene.stepped`), the track sampled on its grid and a copy of
+        the cost bound to them. The spline, the sampler space, the nominal control points and the
+        contact times are in control time and stay as they are.
+
+        Raises:
+            ValueError: a problem built without its reference.
+        """
+        if self.reference is None:
+            raise ValueError("Problem.stepped needs the reference the problem was built from")
+        scene = self.scene.stepped(timestep)
+        task = scene.task
+        track = ReferenceTrack.build(self.reference, task.layout, task.time_scale, timestep, self.padding)
+        cost = copy.copy(self.cost)
+        cost.bind(scene, track, self.reference)
+        return replace(self, scene=scene, track=track, cost=cost)
 
 
 def release_direction(scene: Scene, track: ReferenceTrack, step: int) -> np.ndarray:

@@ -166,6 +166,14 @@ class Planner:
         grip: squeeze the fingers the reference expects in contact (not the paper's): their flexion
             joints' targets pressed into the object, in the rollouts and the plant alike
             (:class:`~contactmpc.control.grip.Grip`); ``None`` (the paper): the policy's targets as they are.
+        switch_timestep: from ``switch_after`` seconds after the reference's first expected contact on, plan
+            on a model stepped at this many seconds instead of the scene's ``planner_timestep`` (not the
+            paper's): its own planning model, its reference track and its cost
+            (:meth:`~contactmpc.control.problem.Problem.stepped`), the committed control points carried
+            over; ``step_budget`` then counts that model's steps, and a latency model prices the larger
+            plan of the two phases. ``None`` (the paper): one planning model throughout.
+        switch_after: seconds after the reference's first expected contact at which ``switch_timestep``
+            takes over.
     """
 
     needs_rollouts = True
@@ -202,6 +210,8 @@ class Planner:
         carry_turn_limit: Annotated[float, Ge(0)] = 0.5,
         carry_hold: Annotated[float, Ge(0)] = 0.0,
         grip: Grip | None = None,
+        switch_timestep: Annotated[float, Gt(0)] | None = None,
+        switch_after: float = 2.0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -254,6 +264,10 @@ class Planner:
         self._noise_scale: np.ndarray | None = None  # (Mw, 1) factor on the noise being drawn, or None
         self.guidance = guidance
         self._iteration = 0  # the plan's iteration being rolled out (the guidance's strength)
+        self.switch_timestep = None if switch_timestep is None else float(switch_timestep)
+        self.switch_after = float(switch_after)
+        self._switch_at: float | None = None  # reference time of the switch still to come (switch_timestep)
+        self._switched: Problem | None = None  # the problem planned from then on
 
     # --- the two methods a planner implements ------------------------------------------------
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
@@ -286,22 +300,14 @@ class Planner:
     def bind(self, problem: Problem) -> None:
         """Attach the problem; the nominal control points start as the reference's own (``theta0``), a
         paced reference's clock at control time."""
-        self.problem = problem
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
         self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
-        self.dt = problem.scene.planner_model.opt.timestep
-        self.steps = max(1, int(round(self.horizon / self.dt)))
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
-        self._basis_cache: dict[int, np.ndarray] = {}
         self._actuators = as_index(problem.scene.index.actuators)
+        self._attach(problem)
         if self.grip is not None:
-            track, hand = problem.track, problem.scene.hand
-            carried = self.grip.carried(problem.scene.task.layout, track.object_qpos)
-            fingers, weights, masks = self.grip.tables(hand, track.contact_active, track.dt, carried)
-            self._grip_fingers, self._grip_weights, self._grip_masks = fingers, weights, masks
-            self._grip = weights @ masks
-            self._touched = np.full(len(fingers), np.inf)  # (grip touched) when each finger touched
+            self._touched = np.full(len(self._grip_fingers), np.inf)  # (grip touched) when each touched
         # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
@@ -313,6 +319,26 @@ class Planner:
             if self.approach_reset is not None and first is not None
             else None
         )
+        # switch_timestep: the problem on the other planning model, planned from its switch on
+        self._switch_at, self._switched = None, None
+        if self.switch_timestep is not None and first is not None:
+            self._switch_at = first + self.switch_after
+            self._switched = problem.stepped(self.switch_timestep)
+
+    def _attach(self, problem: Problem) -> None:
+        """Plan ``problem`` from now on: its planning model's step and horizon steps, its track's grip
+        tables, and the rollout engine (a new one where there is none), guided or robust models on it."""
+        self.problem = problem
+        self.dt = problem.scene.planner_model.opt.timestep
+        self.steps = max(1, int(round(self.horizon / self.dt)))
+        self._basis_cache: dict[int, np.ndarray] = {}
+        self._grip_data = self._carry_data = None  # scratch data of the planning model
+        if self.grip is not None:
+            track, hand = problem.track, problem.scene.hand
+            carried = self.grip.carried(problem.scene.task.layout, track.object_qpos)
+            fingers, weights, masks = self.grip.tables(hand, track.contact_active, track.dt, carried)
+            self._grip_fingers, self._grip_weights, self._grip_masks = fingers, weights, masks
+            self._grip = weights @ masks
         if self.guidance is not None and self.needs_rollouts:
             if self.robust is not None:
                 raise ConfigError("planner.guidance and planner.robust: choose one")
@@ -324,19 +350,43 @@ class Planner:
         if self.robust is not None:
             self._models = self.robust.build(problem.scene)
 
+    def phase(self, s: float) -> bool:
+        """Enter the planning phase of reference time ``s``: from the switch on (``switch_timestep``), plan
+        the problem on the other planning model, with a new rollout engine; once.
+
+        Returns:
+            True where it switched now.
+        """
+        if self._switch_at is None or s < self._switch_at - 1e-9:
+            return False
+        problem, self._switch_at, self._switched = self._switched, None, None
+        self.close()
+        self._attach(problem)
+        return True
+
     def latency_for(self, plant_timestep: float) -> float:
         """The planning latency (s) a trial applies: ``latency``, or the model's price of one iteration
-        (its rollouts, :meth:`rollouts_per_plan`). Needs :meth:`bind` (the horizon's steps)."""
+        (its rollouts, :meth:`rollouts_per_plan`), the larger of the two phases' with ``switch_timestep``.
+        Needs :meth:`bind` (the horizon's steps)."""
         if self.latency_model is None:
             return self.latency
-        return self.latency_model.seconds(self.rollouts_per_plan(), self.steps, plant_timestep)
+        price = self.latency_model.seconds(self.rollouts_per_plan(), self.steps, plant_timestep)
+        if self._switch_at is None:
+            return price
+        steps = max(1, int(round(self.horizon / self.switch_timestep)))
+        acquiring = self.acquire_samples is not None and self.switch_after < self.acquire_until - 1e-9
+        switched = self.rollouts_per_plan(steps, acquiring)
+        return max(price, self.latency_model.seconds(switched, steps, plant_timestep))
 
-    def rollouts_per_plan(self) -> int:
+    def rollouts_per_plan(self, steps: int | None = None, acquire: bool = True) -> int:
         """The rollouts one plan runs at most: ``iterations x (samples + extra_rollouts)`` x the robust
-        ensemble's models; 0 for a planner without rollouts."""
+        ensemble's models; 0 for a planner without rollouts. ``steps``: the horizon's planning steps the
+        ``step_budget`` counts (``None``: the bound model's); ``acquire``: False where the plans cannot be
+        in the acquire window (``acquire_samples``)."""
         if not self.needs_rollouts:
             return 0
-        per_iteration = self._budgeted(max(self.num_samples, self.acquire_samples or 0)) + self.extra_rollouts
+        samples = max(self.num_samples, (self.acquire_samples or 0) if acquire else 0)
+        per_iteration = self._budgeted(samples, steps) + self.extra_rollouts
         return self.iterations * per_iteration * (len(self._models) if self._models else 1)
 
     def close(self) -> None:
@@ -554,6 +604,7 @@ class Planner:
             self.carry(t, s, state)
         if self.grip is not None and self.grip.during == "touched":
             self.touch(s, state)
+        self.phase(s)
         self._plan_samples = self.samples_at(s)
         try:
             info = self._plan(s, state, rng, start)
@@ -571,11 +622,12 @@ class Planner:
             return self._budgeted(self.num_samples)
         return self._budgeted(self.acquire_samples)
 
-    def _budgeted(self, samples: int) -> int:
-        """``samples`` cut to what ``step_budget`` allows at the bound horizon's steps."""
+    def _budgeted(self, samples: int, steps: int | None = None) -> int:
+        """``samples`` cut to what ``step_budget`` allows at ``steps`` planning steps a rollout (``None``:
+        the bound horizon's)."""
         if self.step_budget is None:
             return samples
-        return max(1, min(samples, self.step_budget // self.steps))
+        return max(1, min(samples, self.step_budget // (steps or self.steps)))
 
     def _plan(self, t: float, state: np.ndarray, rng: np.random.Generator, start: float) -> PlanInfo:
         if not self.needs_rollouts:
