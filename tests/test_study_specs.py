@@ -684,6 +684,31 @@ def test_the_method_study_sets_each_planning_model_s_plan_against_the_paper_poin
     assert spec.plan_costs(df.iloc[0:0]) == ""
 
 
+def test_the_method_study_says_where_each_free_object_rests_against_the_final_tolerance() -> None:
+    """settles: per task, the offset where the trial starts the object and where it rests (the last row),
+    the first time from which it stays within 0.5 mm and 0.5° of that, the task's final tolerance; the
+    apple from the reference's own first configuration beside it; nothing without rows."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    rows = [
+        ("paper_apple", "task", t, p, r)
+        for t, p, r in ((0.0, 12.0, 0.0), (0.1, 6.0, 8.0), (0.2, 3.6, 11.1), (0.3, 3.5, 11.3))
+    ]
+    rows += [("paper_apple", "reference", t, p, r) for t, p, r in ((0.0, 0.0, 0.0), (0.3, 9.6, 11.3))]
+    rows += [("paper_stapler", "task", t, 0.4 * t, 0.8 * t) for t in (0.0, 0.1, 0.2, 0.3)]  # fmt: skip
+    df = pd.DataFrame(rows, columns=["task", "start", "time", "position_mm", "rotation_deg"]).assign(
+        hand_contacts=0
+    )
+    text = spec.settles(df)
+    assert "| apple | 12.0 mm, 0.0° | 3.5 mm, 11.3° | 0.20 s | 50 mm, 30° | 0 |" in text
+    assert "| stapler | 0.0 mm, 0.0° | 0.1 mm, 0.2° | 0.00 s | 50 mm, 30° | 0 |" in text
+    assert "it turns 11.3° from it before the hand arrives" in text
+    assert "12 mm start offset) it turns 11.3° and rests 9.6 mm from it" in text
+    assert "offset) it turns" not in spec.settles(df[df["start"] == "task"])
+    assert spec.settles(df.iloc[0:0]) == ""
+
+
 def test_the_method_study_sets_each_finer_planning_model_beside_the_method_on_the_same_seeds() -> None:
     """finer_models: per task, each ``+rollout=`` method on top of the method against the method's trials on
     the seeds it ran (a seed the method lacks is left out); nothing without such trials."""

@@ -1795,6 +1795,73 @@ def _plan_costs(study) -> str:
     return plan_costs(pd.read_csv(path))
 
 
+SETTLES = "settle.csv"
+
+
+def settles(rows: pd.DataFrame) -> str:
+    """Where each free object rests before the hand reaches it (:data:`SETTLES`'s rows: ``task``, ``start``,
+    ``time``, ``position_mm``, ``rotation_deg``, ``hand_contacts``; ``studies/method/settle.py``): per task,
+    its offset from the reference's first configuration where the trial starts it and where it rests, how
+    long it takes to get there, against the task's final tolerances; then the apple started at the
+    reference's first configuration itself."""
+    if not len(rows):
+        return ""
+    out = [
+        "Each free object started as a trial starts it (the task's start, the hand held at the reference's "
+        "first configuration, out of contact), then left to rest (`python studies/method/settle.py`): its "
+        "offset from the reference's first configuration, which the trials' object errors are measured "
+        "against, where it starts and where it rests; against the tolerance the task's final check allows "
+        "(from the reference's final configuration).\n\n"
+        "| task | at the start | at rest | at rest after | the final check allows | hand contacts |\n"
+        "|---|--:|--:|--:|--:|--:|\n"
+    ]
+
+    def ends(task: str, start: str):
+        mine = rows[(rows["task"] == task) & (rows["start"] == start)].sort_values("time")
+        return mine, mine.iloc[0], mine.iloc[-1]
+
+    for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        mine, first, last = ends(task, "task")
+        near = (mine["rotation_deg"] - last["rotation_deg"]).abs().lt(0.5) & (
+            mine["position_mm"] - last["position_mm"]
+        ).abs().lt(0.5)
+        since = mine["time"][~near].max() if (~near).any() else -1.0
+        at_rest = mine["time"][mine["time"] > since].min()
+        cls = _task_class(task.removeprefix("paper_"))
+        allows = (
+            f"{1e3 * cls.SETTLE_POSITION:.0f} mm, {math.degrees(cls.SETTLE_ROTATION):.0f}°" if cls else ""
+        )
+        out.append(
+            f"| {task.removeprefix('paper_')} | "
+            f"{first['position_mm']:.1f} mm, {first['rotation_deg']:.1f}° | "
+            f"{last['position_mm']:.1f} mm, {last['rotation_deg']:.1f}° | {at_rest:.2f} s | {allows} | "
+            f"{int(mine['hand_contacts'].max())} |\n"
+        )
+    if ((rows["task"] == "paper_apple") & (rows["start"] == "reference")).any():
+        _, first, last = ends("paper_apple", "task")
+        _, _, bare = ends("paper_apple", "reference")
+        out.append(
+            f"\nThe reference's first orientation of the apple is not one the model's apple rests in on the "
+            f"table: it turns {last['rotation_deg']:.1f}° from it before the hand arrives. Started at the "
+            "reference's first configuration itself (without the authors' "
+            f"{first['position_mm']:.0f} mm start offset) it turns {bare['rotation_deg']:.1f}° and rests "
+            f"{bare['position_mm']:.1f} mm from it: "
+            "the offset moves where it rests, not how far it turns, so starting the apple elsewhere, or at "
+            "rest, would not remove the turn. A grasp that keeps the apple as it finds it carries that turn "
+            "to the set-down, where the final check allows "
+            f"{math.degrees(_task_class('apple').SETTLE_ROTATION):.0f}° from the reference's final "
+            "orientation.\n"
+        )
+    return "".join(out)
+
+
+def _settles(study) -> str:
+    path = None if study is None else study.dir / "figures" / SETTLES
+    if path is None or not path.is_file():
+        return "Not run yet (`python studies/method/settle.py`).\n"
+    return settles(pd.read_csv(path))
+
+
 def shortfall(df: pd.DataFrame, study=None) -> str:
     """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
     milestones they missed, when the failure rule fired) and those completed but not settled (the object
@@ -2197,6 +2264,8 @@ def report(study) -> str:
         + finer_models(df)
         + "\n## What a plan costs with each planning model\n\n"
         + _plan_costs(study)
+        + "\n## Where the object rests before the hand arrives\n\n"
+        + _settles(study)
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
         + "\n## Letting go\n\n"
