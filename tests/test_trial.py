@@ -200,6 +200,22 @@ def test_benchmark_times_states_a_trial_visits(reference_files, tmp_path, visit,
         assert list(sets) == ["scene", "mujoco_ccd", "pyramidal", "solver_20"]
         assert sets["scene"]["saving"] == 0.0
         assert all(p["step_cpu_us"] > 0 and p["object_gap_mm"] >= 0 for p in sets.values())
+    assert all((r["horizon_steps"], r["planning_timestep"]) == (10, 0.01) for r in rows)
+    if (
+        visit == "replay"
+    ):  # planner.switch_timestep: each state benchmarked on the model a plan there rolls out
+        switched = overrides + ["job.repeats=1", "job.physics_steps=2", "job.visit=replay", "job.threads=[1]"]
+        # between the two states (the static reference expects contact from its first frame on)
+        between = round((rows[0]["time"] + rows[2]["time"]) / 2, 3)
+        switched += [
+            "planner.switch_timestep=0.005",
+            f"planner.switch_after={between}",
+            "job.planner_options={}",
+        ]
+        rows = json.loads(run_job(switched, tmp_path / "switched").read_text())["rows"]
+        assert [(r["state"], r["horizon_steps"], r["planning_timestep"]) for r in rows] == [
+            ("approach", 10, 0.01), ("contact", 20, 0.005)
+        ]  # fmt: skip
     if visit == "planner":  # the table and the quiet-vs-loaded comparison read it
         from analysis.benchmarks import main as benchmarks_main
 

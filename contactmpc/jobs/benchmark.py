@@ -298,17 +298,21 @@ def benchmark_planner(
     rows = []
     options: dict[str, dict[str, dict[str, float]]] = {}
     for name, (t, state) in states.items():
-        ratio = int(round(scene.planner_model.opt.timestep / scene.plant_model.opt.timestep))
+        theta0 = planner.theta.copy()
+        planner.bind(trial.problem)
+        planner.phase(t)  # the planning model a plan at t rolls out (planner.switch_timestep)
+        planning = planner.problem.scene.planner_model
+        ratio = int(round(planning.opt.timestep / scene.plant_model.opt.timestep))
         steps = {
             "plant": (scene.plant_model, physics_steps),
-            "model": (scene.planner_model, max(1, physics_steps // ratio)),  # the same simulated time
+            "model": (planning, max(1, physics_steps // ratio)),  # the same simulated time
         }
         plant, model = step_costs(steps, state, repeats).values()
-        theta0 = planner.theta.copy()
         for nthread in threads:
             planner.close()
             planner.nthread = nthread
             planner.bind(trial.problem)
+            planner.phase(t)
             planner.theta[:] = theta0
             _, _, thetas = planner.candidates(np.random.default_rng(seed), t)
             ctrl = planner.controls(thetas, planner.basis(t))
@@ -338,6 +342,8 @@ def benchmark_planner(
                     "planning_model_step_cpu_us": 1e6 * model["cpu"],
                     "nthread": nthread,
                     "plan_samples": planner.samples_at(t),
+                    "horizon_steps": planner.steps,
+                    "planning_timestep": planner.dt,
                     "plan_seconds": timed["plan"]["wall"],
                     "plan_cpu_seconds": timed["plan"]["cpu"],
                     "rollout_seconds": timed["rollout"]["wall"],

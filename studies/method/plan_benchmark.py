@@ -25,7 +25,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 CSV = HERE / "figures" / "plan_benchmark.csv"
 TASKS = ("paper_doorknob", "paper_apple", "paper_bottle", "paper_stapler")
-ROLLOUTS = ("paper", "fine", "fine_budget")
+ROLLOUTS = ("paper", "fine", "fine_budget", "fine_after_grasp")
 
 
 def benchmark(task: str, rollout: str, out: Path) -> dict:
@@ -48,8 +48,8 @@ def main() -> int:
                 result = benchmark(task, rollout, Path(tmp) / f"{task}_{rollout}")
                 for row in result["rows"]:
                     rows.append({"task": task, "rollout": rollout, "state": row["state"],
-                                 "planning_timestep": result["planning_timestep"],
-                                 "horizon_steps": result["horizon_steps"],
+                                 "planning_timestep": row["planning_timestep"],
+                                 "horizon_steps": row["horizon_steps"],
                                  "plan_samples": row["plan_samples"],
                                  "plan_cpu_seconds": row["plan_cpu_seconds"],
                                  "rollout_cpu_seconds": row["rollout_cpu_seconds"],
