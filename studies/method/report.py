@@ -1630,9 +1630,11 @@ def _slowest(medians: dict[str, tuple[float, int, int]]) -> str:
     )
 
 
-def _replays(study) -> str:
-    path = None if study is None else study.dir / "figures" / REPLAYS
-    return release_replays(pd.read_csv(path)) if path is not None and path.is_file() else ""
+def from_figures(study, name: str, section, missing: str = "") -> str:
+    """``section`` of the rows of the study's ``figures/<name>`` (a CSV a script of this folder writes), or
+    ``missing`` where there is none (or no study)."""
+    path = None if study is None else study.dir / "figures" / name
+    return section(pd.read_csv(path)) if path is not None and path.is_file() else missing
 
 
 LIFTS = "lift_replay.csv"
@@ -1723,11 +1725,6 @@ def finer_models(df: pd.DataFrame) -> str:
     )
 
 
-def _lifts(study) -> str:
-    path = None if study is None else study.dir / "figures" / LIFTS
-    return lift_replays(pd.read_csv(path)) if path is not None and path.is_file() else "Not replayed yet.\n"
-
-
 PLAN_COSTS = "plan_benchmark.csv"
 
 
@@ -1788,13 +1785,6 @@ def plan_costs(rows: pd.DataFrame) -> str:
     return "".join(out)
 
 
-def _plan_costs(study) -> str:
-    path = None if study is None else study.dir / "figures" / PLAN_COSTS
-    if path is None or not path.is_file():
-        return "Not benchmarked yet (`python studies/method/plan_benchmark.py`).\n"
-    return plan_costs(pd.read_csv(path))
-
-
 SETTLES = "settle.csv"
 
 
@@ -1853,13 +1843,6 @@ def settles(rows: pd.DataFrame) -> str:
             "orientation.\n"
         )
     return "".join(out)
-
-
-def _settles(study) -> str:
-    path = None if study is None else study.dir / "figures" / SETTLES
-    if path is None or not path.is_file():
-        return "Not run yet (`python studies/method/settle.py`).\n"
-    return settles(pd.read_csv(path))
 
 
 def shortfall(df: pd.DataFrame, study=None) -> str:
@@ -1928,7 +1911,11 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
             )
             if link:
                 out += ["", f"  {link}", ""]
-        if kinds.get(task) == "articulation" and len(done) and (replayed := _replays(study)):
+        if (
+            kinds.get(task) == "articulation"
+            and len(done)
+            and (replayed := from_figures(study, REPLAYS, release_replays))
+        ):
             out += [replayed, ""]
     return "\n".join(out).rstrip("\n") + "\n"
 
@@ -2260,12 +2247,17 @@ def report(study) -> str:
         + "\n## Levers on the method, full trials\n\n"
         + levers_section(study, df)
         + "\n## The planning model and the lift\n\n"
-        + _lifts(study)
+        + from_figures(study, LIFTS, lift_replays, "Not replayed yet.\n")
         + finer_models(df)
         + "\n## What a plan costs with each planning model\n\n"
-        + _plan_costs(study)
+        + from_figures(
+            study,
+            PLAN_COSTS,
+            plan_costs,
+            "Not benchmarked yet (`python studies/method/plan_benchmark.py`).\n",
+        )
         + "\n## Where the object rests before the hand arrives\n\n"
-        + _settles(study)
+        + from_figures(study, SETTLES, settles, "Not run yet (`python studies/method/settle.py`).\n")
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
         + "\n## Letting go\n\n"
