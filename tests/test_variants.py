@@ -389,7 +389,8 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     """rollout=paper (the default) composes the same config as no choice; rollout=fine halves the planning
     model's step and leaves the plant's; the scene it builds steps its planning model at 5 ms;
     rollout=fine_budget steps it at 5 ms within the paper point's rollout steps a plan;
-    rollout=fine_after_grasp keeps 10 ms and switches to 5 ms 2 s after the first expected contact."""
+    rollout=fine_after_grasp keeps 10 ms and switches to 5 ms 2 s after the first expected contact,
+    rollout=fine_from_contact at it, within the paper point's rollout steps."""
     base = compose(["task=apple"])
     assert compose(["task=apple", "rollout=paper"]) == base
     fine = compose(["task=apple", "rollout=fine"])
@@ -406,3 +407,7 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     assert late.scene.planner_timestep == base.scene.planner_timestep  # 10 ms while the grasp is formed
     assert (late.planner.switch_timestep, late.planner.switch_after) == (0.005, 2.0)
     assert base.planner.switch_timestep is None
+    contact = compose(["task=apple", "rollout=fine_from_contact"])
+    assert contact.scene.planner_timestep == base.scene.planner_timestep
+    assert (contact.planner.switch_timestep, contact.planner.switch_after) == (0.005, 0.0)
+    assert contact.planner.step_budget == 128 * 250

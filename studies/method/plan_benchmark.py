@@ -25,7 +25,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 CSV = HERE / "figures" / "plan_benchmark.csv"
 TASKS = ("paper_doorknob", "paper_apple", "paper_bottle", "paper_stapler")
-ROLLOUTS = ("paper", "fine", "fine_budget", "fine_after_grasp")
+ROLLOUTS = ("paper", "fine", "fine_budget", "fine_after_grasp", "fine_from_contact")
 
 
 def benchmark(task: str, rollout: str, out: Path) -> dict:
