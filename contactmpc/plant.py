@@ -52,6 +52,8 @@ class TrialLog:
             ``cost_contact``, ``cost_velocity`` for :class:`~contactmpc.control.cost.TrackingCost`).
         plan_seconds: (N,) wall time of the planning iteration.
         num_diverged: (N,) diverged rollouts of the iteration.
+        prediction_position_error / prediction_rotation_error: (N,) with ``planner.compensate_latency``:
+            the free object's errors from where the last plan predicted it (NaN without a prediction).
     """
 
     columns: dict[str, list] = field(default_factory=dict)
@@ -177,11 +179,16 @@ class Plant:
 
 def _plan_columns(info: PlanInfo) -> dict[str, float]:
     """A log row's columns of the planning iteration ``info``: the committed sample's cost terms
-    (``cost_<term>``), the best and the nominal cost, its wall time and its diverged rollouts."""
-    return {
+    (``cost_<term>``), the best and the nominal cost, its wall time and its diverged rollouts; with a
+    prediction for its time (``planner.compensate_latency``), the free object's errors from it
+    (``prediction_position_error``, m; ``prediction_rotation_error``, rad)."""
+    columns = {
         **{f"cost_{name}": value for name, value in info.terms.items()},
         "best_cost": info.best_cost,
         "nominal_cost": info.nominal_cost,
         "plan_seconds": info.seconds,
         "num_diverged": info.num_diverged,
     }
+    if info.prediction is not None:
+        columns["prediction_position_error"], columns["prediction_rotation_error"] = info.prediction
+    return columns

@@ -171,9 +171,11 @@ def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect
     trial, planner = _trial(scene, ref, duration=0.25, replan_period=0.01, latency=0.07,
                             compensate_latency=True)  # fmt: skip
     real_predict = planner.predict
+    predicted = []  # the object where each prediction puts it
 
     def predict(t, state, duration):
         ahead = real_predict(t, state, duration)
+        predicted.append(ahead[1][1 + scene.index.object_qpos])
         n = int(round(duration / planner.dt))
         times = t + np.arange(n) * planner.dt
         ctrl = planner.controls(planner.theta[None], planner.problem.spline.basis(times))
@@ -187,6 +189,12 @@ def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect
     np.testing.assert_allclose([p[0] for p in plans], [0.07, 0.14, 0.21, 0.28])  # planned 70 ms ahead
     np.testing.assert_allclose([p[2] for p in plans], [0.07, 0.14, 0.21, 0.28])  # from states then
     np.testing.assert_allclose(log["time"], [0.0, 0.07, 0.14, 0.21])  # the loop's clock as before
+    # each plan logs how far the object it measured is from where the last plan predicted it (none first)
+    error = scene.task.layout.error(log["object_qpos"][1:], np.array(predicted[:-1]))
+    assert np.isnan(log["prediction_position_error"][0]) and np.isnan(log["prediction_rotation_error"][0])
+    np.testing.assert_array_equal(log["prediction_position_error"][1:], error.position)
+    np.testing.assert_array_equal(log["prediction_rotation_error"][1:], error.rotation)
+    assert "prediction_position_error" not in _recorded(monkeypatch, *_trial(scene, ref, duration=0.1))[2]
     _same_log(scene, ref, {}, {"compensate_latency": True})  # no latency: nothing to compensate
 
 

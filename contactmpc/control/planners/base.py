@@ -48,6 +48,10 @@ class PlanInfo:
         iterations: sampling iterations it ran (``planner.iterations``, fewer when it stopped early).
         reference_time: the reference's time it planned at (s); ``None``: ``time`` (the reference is not
             paced, ``planner.pace_lag``).
+        prediction: (:attr:`Planner.compensate_latency`) how far the state it planned from is from where
+            the last plan's prediction put it: the free object's position (m) and orientation (rad) errors
+            between the measured state and the planning model's prediction for this time (NaN where there
+            was none for it); ``None`` for a planner that does not predict.
     """
 
     time: float
@@ -59,6 +63,7 @@ class PlanInfo:
     seconds: float = 0.0
     iterations: int = 1
     reference_time: float | None = None
+    prediction: tuple[float, float] | None = None
 
 
 class Scored(NamedTuple):
@@ -266,6 +271,7 @@ class Planner:
         self._iteration = 0  # the plan's iteration being rolled out (the guidance's strength)
         self.switch_timestep = None if switch_timestep is None else float(switch_timestep)
         self.switch_after = float(switch_after)
+        self._predicted: tuple[float, np.ndarray] | None = None  # (compensate_latency) the last prediction
         self._switch_at: float | None = None  # reference time of the switch still to come (switch_timestep)
         self._switched: Problem | None = None  # the problem planned from then on
 
@@ -303,6 +309,7 @@ class Planner:
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
         self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
+        self._predicted = None
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
         self._actuators = as_index(problem.scene.index.actuators)
         self._attach(problem)
@@ -591,8 +598,12 @@ class Planner:
         """
         start = time.perf_counter()
         takes_effect = t + ahead
+        prediction = self.prediction_error(t, state) if self.compensate_latency else None
         if ahead and self.compensate_latency:  # plan from where the plant will be when the plan acts
-            t, state = self.predict(t, state, ahead)
+            predicted = self.predict(t, state, ahead)
+            if predicted[0] != t:
+                self._predicted = (predicted[0], predicted[1][1 + self.problem.scene.index.object_qpos])
+            t, state = predicted
         s = self.reference_time(t)  # where the plan is on the reference: t unless it is paced
         if self.pace_lag is not None:
             self.pace(takes_effect, s, state)
@@ -612,7 +623,18 @@ class Planner:
             self._plan_samples = None
         if self.pace_lag is not None:
             info.time, info.reference_time = t, s
+        info.prediction = prediction
         return info
+
+    def prediction_error(self, t: float, state: np.ndarray) -> tuple[float, float]:
+        """``(position m, orientation rad)``: the free object's errors between ``state``, measured at
+        control time ``t``, and the last prediction (:meth:`predict`, :attr:`compensate_latency`) where it
+        was made for ``t``; NaN where none was."""
+        if self._predicted is None or abs(self._predicted[0] - t) > 1e-9:
+            return float("nan"), float("nan")
+        layout = self.problem.scene.task.layout
+        error = layout.error(state[1 + self.problem.scene.index.object_qpos], self._predicted[1])
+        return float(error.position), float(error.rotation)
 
     def samples_at(self, t: float) -> int:
         """The samples a plan at control time ``t`` draws: ``acquire_samples`` until ``acquire_until``
