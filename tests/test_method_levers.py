@@ -308,6 +308,61 @@ def test_switch_timestep_plans_on_the_finer_model_from_after_the_first_contact(
         bound(coarse, switch_timestep=0.0055)
 
 
+def test_switch_error_switches_once_the_model_has_mispredicted_the_object_in_a_row(
+    scene_for, late_contact_reference
+):
+    """planner.switch_error: from the first expected contact on, the plan whose last ``switch_count``
+    predictions each missed the object by more than it switches (a miss under it, or a plan without a
+    prediction, starts the count again); before the first contact no miss counts; a trial's plans pass their
+    logged prediction; it needs a model to switch to and the predictions of compensate_latency."""
+    ref = late_contact_reference[0]
+    scene = scene_for("apple")
+
+    def bound(**options):
+        planner = PredictiveSampling(num_samples=4, horizon=0.1, replan_period=0.05, nthread=1,
+                                     switch_timestep=0.005, compensate_latency=True, **options)  # fmt: skip
+        trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
+        return planner, trial
+
+    planner, trial = bound(switch_after=None, switch_error=0.001, switch_count=2)
+    first = trial.problem.first_contact
+    miss, hit = (0.002, 0.0), (0.0005, 0.0)
+    assert not planner.phase(first - 0.1, miss) and not planner.phase(
+        first - 0.05, miss
+    )  # not before contact
+    assert not planner.phase(first, miss) and not planner.phase(first + 0.05, hit)  # a hit: from 0 again
+    assert not planner.phase(first + 0.1, miss) and not planner.phase(first + 0.15, (np.nan, np.nan))
+    assert not planner.phase(first + 10.0)  # no time rule (switch_after None), no prediction
+    assert planner.dt == 0.01
+    assert not planner.phase(first + 0.2, miss) and planner.phase(first + 0.25, miss)  # two in a row
+    assert planner.dt == 0.005 and not planner.phase(first + 0.3, miss)  # once
+    planner.close()
+    # in a trial with a latency, every plan from the second on has a prediction to check: with a
+    # threshold no miss stays under, it switches at the second plan from the first contact on
+    eager, trial = bound(switch_after=None, switch_error=1e-12, switch_count=1, latency=0.05)
+    switched = []
+    real_phase = eager.phase
+
+    def phase(s, prediction=None):
+        now = real_phase(s, prediction)
+        if now:
+            switched.append((s, prediction))
+        return now
+
+    eager.phase = phase
+    trial.duration = first + 0.2
+    log = trial.run().arrays()
+    ((at, prediction),) = switched
+    assert at >= first - 1e-9 and prediction[0] > 1e-12
+    i = int(np.flatnonzero(np.isclose(log["time"], at - 0.05))[0])  # the plan it switched at, planned ahead
+    assert log["prediction_position_error"][i] == prediction[0]
+    eager.close()
+    for options in ({"switch_timestep": None}, {"compensate_latency": False}):
+        with pytest.raises(ConfigError, match="switch_error needs planner.switch_timestep"):
+            PredictiveSampling(**{"switch_timestep": 0.005, "compensate_latency": True, "switch_error": 0.001,
+                                  **options})  # fmt: skip
+
+
 def test_approach_reset_puts_the_committed_points_back_to_the_reference_before_the_first_contact(scene_for):
     """planner.approach_reset: at the first plan at or after that many seconds before the first expected
     contact, the committed control points whose support meets the rest of the trial go back to the

@@ -390,7 +390,8 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     model's step and leaves the plant's; the scene it builds steps its planning model at 5 ms;
     rollout=fine_budget steps it at 5 ms within the paper point's rollout steps a plan;
     rollout=fine_after_grasp keeps 10 ms and switches to 5 ms 2 s after the first expected contact,
-    rollout=fine_from_contact at it, within the paper point's rollout steps."""
+    rollout=fine_from_contact at it, within the paper point's rollout steps; rollout=fine_on_error once the
+    model has mispredicted the object."""
     base = compose(["task=apple"])
     assert compose(["task=apple", "rollout=paper"]) == base
     fine = compose(["task=apple", "rollout=fine"])
@@ -411,3 +412,6 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     assert contact.scene.planner_timestep == base.scene.planner_timestep
     assert (contact.planner.switch_timestep, contact.planner.switch_after) == (0.005, 0.0)
     assert contact.planner.step_budget == 128 * 250
+    on_error = compose(["task=apple", "rollout=fine_on_error"]).planner
+    assert (on_error.switch_timestep, on_error.switch_after, on_error.switch_error) == (0.005, None, 0.001)
+    assert on_error.step_budget == 128 * 250

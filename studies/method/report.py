@@ -35,6 +35,8 @@ QUESTION = (
 TITLE = "The method: one method for the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
+    "python launch.py experiment=method variant=grasp_held_eased rollout=fine_on_error "
+    "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_from_contact "
     "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_after_grasp "
@@ -58,6 +60,7 @@ HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
 ORDER = (
+    "grasp_held_eased+rollout=fine_on_error",
     "grasp_held_eased+rollout=fine_from_contact",
     "grasp_held_eased+rollout=fine_after_grasp",
     "grasp_held_eased+rollout=fine_budget",

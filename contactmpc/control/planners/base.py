@@ -178,7 +178,12 @@ class Planner:
             over; ``step_budget`` then counts that model's steps, and a latency model prices the larger
             plan of the two phases. ``None`` (the paper): one planning model throughout.
         switch_after: seconds after the reference's first expected contact at which ``switch_timestep``
-            takes over.
+            takes over; ``None``: only by ``switch_error``.
+        switch_error: switch also (or only, with ``switch_after`` ``None``) once the planning model has
+            mispredicted the object: from the reference's first expected contact on, at the plan whose last
+            ``switch_count`` predictions (:attr:`PlanInfo.prediction`, ``compensate_latency``) each missed the
+            free object's position by more than this many metres. ``None``: by time alone.
+        switch_count: consecutive predictions over ``switch_error`` that switch.
     """
 
     needs_rollouts = True
@@ -216,7 +221,9 @@ class Planner:
         carry_hold: Annotated[float, Ge(0)] = 0.0,
         grip: Grip | None = None,
         switch_timestep: Annotated[float, Gt(0)] | None = None,
-        switch_after: float = 2.0,
+        switch_after: float | None = 2.0,
+        switch_error: Annotated[float, Gt(0)] | None = None,
+        switch_count: Annotated[int, Ge(1)] = 2,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -270,7 +277,16 @@ class Planner:
         self.guidance = guidance
         self._iteration = 0  # the plan's iteration being rolled out (the guidance's strength)
         self.switch_timestep = None if switch_timestep is None else float(switch_timestep)
-        self.switch_after = float(switch_after)
+        self.switch_after = None if switch_after is None else float(switch_after)
+        self.switch_error = None if switch_error is None else float(switch_error)
+        self.switch_count = int(switch_count)
+        if switch_error is not None and (switch_timestep is None or not compensate_latency):
+            raise ConfigError(
+                "planner.switch_error needs planner.switch_timestep (the model it switches to) and "
+                "planner.compensate_latency (compensation=predict: the predictions it checks)"
+            )
+        self._misses = 0  # (switch_error) consecutive predictions over it
+        self._first: float | None = None  # the reference's first expected contact (switch_error)
         self._predicted: tuple[float, np.ndarray] | None = None  # (compensate_latency) the last prediction
         self._switch_at: float | None = None  # reference time of the switch still to come (switch_timestep)
         self._switched: Problem | None = None  # the problem planned from then on
@@ -327,9 +343,9 @@ class Planner:
             else None
         )
         # switch_timestep: the problem on the other planning model, planned from its switch on
-        self._switch_at, self._switched = None, None
+        self._switch_at, self._switched, self._first, self._misses = None, None, first, 0
         if self.switch_timestep is not None and first is not None:
-            self._switch_at = first + self.switch_after
+            self._switch_at = np.inf if self.switch_after is None else first + self.switch_after
             self._switched = problem.stepped(self.switch_timestep)
 
     def _attach(self, problem: Problem) -> None:
@@ -357,14 +373,22 @@ class Planner:
         if self.robust is not None:
             self._models = self.robust.build(problem.scene)
 
-    def phase(self, s: float) -> bool:
-        """Enter the planning phase of reference time ``s``: from the switch on (``switch_timestep``), plan
-        the problem on the other planning model, with a new rollout engine; once.
+    def phase(self, s: float, prediction: tuple[float, float] | None = None) -> bool:
+        """Enter the planning phase of reference time ``s``: from the switch on (``switch_timestep``: at
+        ``switch_after``, or, with ``switch_error``, once the last ``switch_count`` ``prediction`` s, this
+        plan's the last, each missed the object by more than it), plan the problem on the other planning
+        model, with a new rollout engine; once.
 
         Returns:
             True where it switched now.
         """
-        if self._switch_at is None or s < self._switch_at - 1e-9:
+        if self._switched is None:
+            return False
+        due = s >= self._switch_at - 1e-9
+        if self.switch_error is not None and prediction is not None and s >= self._first - 1e-9:
+            self._misses = self._misses + 1 if prediction[0] > self.switch_error else 0
+            due = due or self._misses >= self.switch_count
+        if not due:
             return False
         problem, self._switch_at, self._switched = self._switched, None, None
         self.close()
@@ -378,10 +402,11 @@ class Planner:
         if self.latency_model is None:
             return self.latency
         price = self.latency_model.seconds(self.rollouts_per_plan(), self.steps, plant_timestep)
-        if self._switch_at is None:
+        if self._switched is None:
             return price
         steps = max(1, int(round(self.horizon / self.switch_timestep)))
-        acquiring = self.acquire_samples is not None and self.switch_after < self.acquire_until - 1e-9
+        early = self.switch_error is not None or self.switch_after < self.acquire_until - 1e-9
+        acquiring = self.acquire_samples is not None and early
         switched = self.rollouts_per_plan(steps, acquiring)
         return max(price, self.latency_model.seconds(switched, steps, plant_timestep))
 
@@ -615,7 +640,7 @@ class Planner:
             self.carry(t, s, state)
         if self.grip is not None and self.grip.during == "touched":
             self.touch(s, state)
-        self.phase(s)
+        self.phase(s, prediction)
         self._plan_samples = self.samples_at(s)
         try:
             info = self._plan(s, state, rng, start)
