@@ -286,7 +286,6 @@ class Planner:
                 "planner.compensate_latency (compensation=predict: the predictions it checks)"
             )
         self._misses = 0  # (switch_error) consecutive predictions over it
-        self._first: float | None = None  # the reference's first expected contact (switch_error)
         self._predicted: tuple[float, np.ndarray] | None = None  # (compensate_latency) the last prediction
         self._switch_at: float | None = None  # reference time of the switch still to come (switch_timestep)
         self._switched: Problem | None = None  # the problem planned from then on
@@ -343,7 +342,7 @@ class Planner:
             else None
         )
         # switch_timestep: the problem on the other planning model, planned from its switch on
-        self._switch_at, self._switched, self._first, self._misses = None, None, first, 0
+        self._switch_at, self._switched, self._misses = None, None, 0
         if self.switch_timestep is not None and first is not None:
             self._switch_at = np.inf if self.switch_after is None else first + self.switch_after
             self._switched = problem.stepped(self.switch_timestep)
@@ -385,7 +384,8 @@ class Planner:
         if self._switched is None:
             return False
         due = s >= self._switch_at - 1e-9
-        if self.switch_error is not None and prediction is not None and s >= self._first - 1e-9:
+        first = self.problem.first_contact
+        if self.switch_error is not None and prediction is not None and s >= first - 1e-9:
             self._misses = self._misses + 1 if prediction[0] > self.switch_error else 0
             due = due or self._misses >= self.switch_count
         if not due:
