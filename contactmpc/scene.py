@@ -425,22 +425,18 @@ class Scene:
             self._add_hand_object_contact()
             self._add_link_distance(link_distance_cutoff)
             self.plant_model = self._compile(plant_timestep)
-            self.planner_model = self._compile(planner_timestep)
-            self.planner_options = dict(planner_options or {})
-            set_options(self.planner_model.opt, self.planner_options)
         except SceneError:
             raise
         except Exception as err:  # MjSpec raises ValueError for compile errors
             msg = " ".join(str(err).split())
             raise SceneError(f"task {task.name!r}: scene failed to compile: {msg}") from err
         self.index = SceneIndex.resolve(self.plant_model, hand, task)
+        self.planner_options = dict(planner_options or {})
         self.planning_cuts = dict(planning_cuts or {})
-        self.exact_planner_model = self.planner_model  # without the planning cuts
-        if self.planning_cuts:
-            unknown = set(self.planning_cuts) - {"options", "hand_pairs"}
-            if unknown:
-                raise SceneError(f"scene.planning_cuts: {sorted(unknown)} not among options, hand_pairs")
-            self.planner_model = planning_model(self, **self.planning_cuts)
+        unknown = set(self.planning_cuts) - {"options", "hand_pairs"}
+        if unknown:
+            raise SceneError(f"scene.planning_cuts: {sorted(unknown)} not among options, hand_pairs")
+        self._set_planning_model(planner_timestep)
 
     def _add_hand_object_contact(self) -> None:
         """One contact sensor per outermost object body (the subtree of the hand's root against the
@@ -522,13 +518,17 @@ class Scene:
         if not self.plant_timestep <= timestep:
             raise SceneError(f"planning step {timestep:g} s is below the plant's ({self.plant_timestep:g} s)")
         other = copy.copy(self)
-        other.planner_timestep = timestep
-        other.planner_model = self._compile(timestep)
-        set_options(other.planner_model.opt, self.planner_options)
-        other.exact_planner_model = other.planner_model
-        if self.planning_cuts:
-            other.planner_model = planning_model(other, **self.planning_cuts)
+        other._set_planning_model(timestep)
         return other
+
+    def _set_planning_model(self, timestep: float) -> None:
+        """Compile the planning model at ``timestep`` with the planner options
+        (:attr:`exact_planner_model`), then its planning cuts (:attr:`planner_model`)."""
+        self.planner_timestep = timestep
+        self.exact_planner_model = self.planner_model = self._compile(timestep)
+        set_options(self.planner_model.opt, self.planner_options)
+        if self.planning_cuts:
+            self.planner_model = planning_model(self, **self.planning_cuts)
 
     def _compile(self, timestep: float) -> mujoco.MjModel:
         self.spec.option.timestep = timestep

@@ -299,20 +299,20 @@ def benchmark_planner(
     options: dict[str, dict[str, dict[str, float]]] = {}
     for name, (t, state) in states.items():
         theta0 = planner.theta.copy()
-        planner.bind(trial.problem)
-        planner.phase(t)  # the planning model a plan at t rolls out (planner.switch_timestep)
-        planning = planner.problem.scene.planner_model
-        ratio = int(round(planning.opt.timestep / scene.plant_model.opt.timestep))
-        steps = {
-            "plant": (scene.plant_model, physics_steps),
-            "model": (planning, max(1, physics_steps // ratio)),  # the same simulated time
-        }
-        plant, model = step_costs(steps, state, repeats).values()
+        plant = model = None
         for nthread in threads:
             planner.close()
             planner.nthread = nthread
             planner.bind(trial.problem)
-            planner.phase(t)
+            planner.phase(t)  # the planning model a plan at t rolls out (planner.switch_timestep)
+            if plant is None:
+                planning = planner.problem.scene.planner_model
+                ratio = int(round(planning.opt.timestep / scene.plant_model.opt.timestep))
+                steps = {
+                    "plant": (scene.plant_model, physics_steps),
+                    "model": (planning, max(1, physics_steps // ratio)),  # the same simulated time
+                }
+                plant, model = step_costs(steps, state, repeats).values()
             planner.theta[:] = theta0
             _, _, thetas = planner.candidates(np.random.default_rng(seed), t)
             ctrl = planner.controls(thetas, planner.basis(t))

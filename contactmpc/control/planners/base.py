@@ -513,8 +513,7 @@ class Planner:
             wait = last is not None and last + start - 1e-9 <= s < last + end - 1e-9
         if wait and behind < self.pace_budget - 1e-9:
             scene, track = problem.scene, problem.track
-            qo = state[1 + scene.index.object_qpos]  # mjSTATE_FULLPHYSICS: the time, then qpos
-            error = scene.task.layout.error(qo, track.object_qpos[track.index(s)])
+            error = scene.task.layout.error(self.object_qpos(state), track.object_qpos[track.index(s)])
             lag = float(error.position)
             turned = self.pace_angle is not None and float(error.rotation) > self.pace_angle
             if lag > self.pace_lag or turned:
@@ -627,7 +626,7 @@ class Planner:
         if ahead and self.compensate_latency:  # plan from where the plant will be when the plan acts
             predicted = self.predict(t, state, ahead)
             if predicted[0] != t:
-                self._predicted = (predicted[0], predicted[1][1 + self.problem.scene.index.object_qpos])
+                self._predicted = (predicted[0], self.object_qpos(predicted[1]))
             t, state = predicted
         s = self.reference_time(t)  # where the plan is on the reference: t unless it is paced
         if self.pace_lag is not None:
@@ -651,6 +650,11 @@ class Planner:
         info.prediction = prediction
         return info
 
+    def object_qpos(self, state: np.ndarray) -> np.ndarray:
+        """(n_o,) the object configuration of a full-physics ``state`` (``mjSTATE_FULLPHYSICS``: the time,
+        then qpos)."""
+        return state[1 + self.problem.scene.index.object_qpos]
+
     def prediction_error(self, t: float, state: np.ndarray) -> tuple[float, float]:
         """``(position m, orientation rad)``: the free object's errors between ``state``, measured at
         control time ``t``, and the last prediction (:meth:`predict`, :attr:`compensate_latency`) where it
@@ -658,7 +662,7 @@ class Planner:
         if self._predicted is None or abs(self._predicted[0] - t) > 1e-9:
             return float("nan"), float("nan")
         layout = self.problem.scene.task.layout
-        error = layout.error(state[1 + self.problem.scene.index.object_qpos], self._predicted[1])
+        error = layout.error(self.object_qpos(state), self._predicted[1])
         return float(error.position), float(error.rotation)
 
     def samples_at(self, t: float) -> int:
@@ -777,7 +781,7 @@ class Planner:
         if not len(free) or dt <= 0:
             return step
         c = free[0]
-        qo = state[1 + scene.index.object_qpos]  # mjSTATE_FULLPHYSICS: the time, then qpos
+        qo = self.object_qpos(state)
         expected = track.object_qpos[track.index(s)]
         start = track.object_qpos[0, c + 2]
         if min(qo[c + 2], expected[c + 2]) - start <= self.carry_lift:
