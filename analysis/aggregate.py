@@ -130,6 +130,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "num_control_points": "Int64",
     "num_plans": "Int64",
     "diverged_rollouts": "Int64",
+    "switch_time": "float",
     "num_samples": "Int64",
     "horizon": "float",
     "replan_period": "float",

@@ -293,11 +293,13 @@ def test_switch_timestep_plans_on_the_finer_model_from_after_the_first_contact(
     before, after = first + 0.05, first + 0.1
     assert_plans_alike(switching, off, before, state)
     assert (switching.dt, switching.steps, switching.engine.model.opt.timestep) == (0.01, 10, 0.01)
+    assert switching.switched_at is None
     assert_plans_alike(switching, stepped, after, state)  # it switches in this plan
+    assert switching.switched_at == pytest.approx(after)
     assert (switching.dt, switching.steps, switching.engine.model.opt.timestep) == (0.005, 20, 0.005)
     assert switching.problem.track.dt == 0.005 and switching.problem.cost.track is switching.problem.track
     assert trial.problem.track.dt == 0.01  # the trial's own problem is left as it was
-    assert not switching.phase(after + 1.0)  # once
+    assert not switching.phase(after + 1.0) and switching.switched_at == pytest.approx(after)  # once
     model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
     priced, _ = bound(coarse, switch_timestep=0.005, latency_model=model)
     # the finer phase's 6 samples x 20 steps, not the first's x 10
@@ -353,7 +355,7 @@ def test_switch_error_switches_once_the_model_has_mispredicted_the_object_in_a_r
     trial.duration = first + 0.2
     log = trial.run().arrays()
     ((at, prediction),) = switched
-    assert at >= first - 1e-9 and prediction[0] > 1e-12
+    assert at >= first - 1e-9 and prediction[0] > 1e-12 and eager.switched_at == at
     i = int(np.flatnonzero(np.isclose(log["time"], at - 0.05))[0])  # the plan it switched at, planned ahead
     assert log["prediction_position_error"][i] == prediction[0]
     eager.close()

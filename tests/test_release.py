@@ -165,6 +165,7 @@ def _trial_and_series(release: float, knocked: bool):
         spline=SimpleNamespace(num_control_points=10),
         replan_interval=DT,
         latency=0.0,
+        planner=SimpleNamespace(switch_timestep=None, switched_at=None),
     )
     return series, trial
 
@@ -179,6 +180,11 @@ def test_summarize_records_the_end_of_the_trial():
     assert (rec["contact_span_start"], rec["contact_span_end"]) == (0.5, 2.5)
     assert rec["object_position_error_span_mean"] == pytest.approx(0.0)
     assert rec["object_position_error_after_mean"] == pytest.approx(0.0)
+    assert "switch_time" not in rec  # only with planner.switch_timestep
+    trial.planner = SimpleNamespace(switch_timestep=0.005, switched_at=None)  # it never switched
+    assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_time"] is None
+    trial.planner.switched_at = 1.25
+    assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_time"] == 1.25
 
     knocked, trial = _trial_and_series(release=2.5, knocked=True)
     rec = summarize(knocked, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)

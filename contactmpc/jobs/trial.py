@@ -195,6 +195,9 @@ def summarize(
         settled = task.settled(
             series["object_qpos"], trial.track.object_qpos[-1], held, series["time"], hold, let_go
         )
+    switch = {}
+    if trial.planner.switch_timestep is not None:  # when its planning model switched
+        switch["switch_time"] = trial.planner.switched_at
     names = ("object_position_error", "object_rotation_error", "object_articulation_error")
     windows = errors_by_window(series["time"], {k: series[k] for k in names}, ttf.span)
     return {
@@ -228,4 +231,5 @@ def summarize(
         "replan_interval": trial.replan_interval,
         "latency": trial.latency,
         "diverged_rollouts": int(np.sum(series["num_diverged"])),
+        **switch,
     }

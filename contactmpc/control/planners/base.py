@@ -289,6 +289,7 @@ class Planner:
         self._predicted: tuple[float, np.ndarray] | None = None  # (compensate_latency) the last prediction
         self._switch_at: float | None = None  # reference time of the switch still to come (switch_timestep)
         self._switched: Problem | None = None  # the problem planned from then on
+        self.switched_at: float | None = None  # reference time of the first plan on the switched model
 
     # --- the two methods a planner implements ------------------------------------------------
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
@@ -342,7 +343,7 @@ class Planner:
             else None
         )
         # switch_timestep: the problem on the other planning model, planned from its switch on
-        self._switch_at, self._switched, self._misses = None, None, 0
+        self._switch_at, self._switched, self._misses, self.switched_at = None, None, 0, None
         if self.switch_timestep is not None and first is not None:
             self._switch_at = np.inf if self.switch_after is None else first + self.switch_after
             self._switched = problem.stepped(self.switch_timestep)
@@ -376,7 +377,7 @@ class Planner:
         """Enter the planning phase of reference time ``s``: from the switch on (``switch_timestep``: at
         ``switch_after``, or, with ``switch_error``, once the last ``switch_count`` ``prediction`` s, this
         plan's the last, each missed the object by more than it), plan the problem on the other planning
-        model, with a new rollout engine; once.
+        model, with a new rollout engine; once (:attr:`switched_at` then says when).
 
         Returns:
             True where it switched now.
@@ -391,6 +392,7 @@ class Planner:
         if not due:
             return False
         problem, self._switch_at, self._switched = self._switched, None, None
+        self.switched_at = float(s)
         self.close()
         self._attach(problem)
         return True
