@@ -1697,6 +1697,25 @@ def lift_replays(rows: pd.DataFrame) -> str:
     return "".join(out)
 
 
+def switched(trials: pd.DataFrame) -> str:
+    """When the trials' planning model switched (the records' ``switch_time``, after the first expected
+    contact: ``contact_span_start``), per seed; those that never did; "" where no record says (records
+    before the field, or a member without a switch)."""
+    if "switch_time" not in trials or not trials["switch_time"].notna().any():
+        return ""
+    told = trials[trials["switch_time"].notna()].sort_values("seed")
+    after = ", ".join(
+        f"{int(r.seed)}: +{r.switch_time - r.contact_span_start:.2f} s" for r in told.itertuples()
+    )
+    never = trials[trials["switch_time"].isna() & trials["seed"].notna()]
+    return f"; it switched (seed: after the first expected contact) {after}" + (
+        f"; no switch time on seeds {seeds(sorted(never['seed']))} (it never switched, or the trial ran "
+        "before the records said)"
+        if len(never)
+        else ""
+    )
+
+
 def finer_models(df: pd.DataFrame) -> str:
     """Per task, each method of :data:`ORDER` that plans :data:`METHOD` with another planning model (a
     ``+rollout=`` member on top of it) against :data:`METHOD` on the same seeds: completed and finished
@@ -1718,7 +1737,7 @@ def finer_models(df: pd.DataFrame) -> str:
                 f"`{m.removeprefix(METHOD + '+')}` completes {of(int(mine['completed'].sum()), n)} and "
                 f"finishes {int(mine['finished_cleanly'].sum())} cleanly, against "
                 f"{int(theirs['completed'].sum())} and {int(theirs['finished_cleanly'].sum())} (seeds "
-                f"{seeds(sorted(mine['seed']))})"
+                f"{seeds(sorted(mine['seed']))}){switched(mine)}"
             )
         if parts:
             lines.append(f"- **{task}**: " + "; ".join(parts))
