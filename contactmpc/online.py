@@ -179,7 +179,10 @@ class OnlineLoop:
                     last, t, state = self._state
                 due = t + self.min_interval
                 start = time.perf_counter()
-                info = planner.plan(t, state, rng, ahead=max(self.apply_after, self.expected_latency()))
+                ahead = max(self.apply_after, self.expected_latency())
+                # the prediction's path runs as far again, for the next plan's check of it, which starts
+                # when this one is done: later than predicted where this plan takes longer than the last ones
+                info = planner.plan(t, state, rng, ahead=ahead, reach=ahead)
                 theta = planner.theta.copy()
                 theta.flags.writeable = False
                 with self._lock:

@@ -173,8 +173,9 @@ def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect
     real_predict = planner.predict
     predicted = []  # the object where each prediction puts it
 
-    def predict(t, state, duration):
-        ahead = real_predict(t, state, duration)
+    def predict(t, state, duration, reach=0.0):
+        assert reach == 0.0  # the simulated loop's next plan starts where this one takes effect
+        ahead = real_predict(t, state, duration, reach)
         predicted.append(ahead[1][1 + scene.index.object_qpos])
         n = int(round(duration / planner.dt))
         times = t + np.arange(n) * planner.dt
@@ -196,6 +197,40 @@ def test_compensation_plans_from_the_state_predicted_where_the_plan_takes_effect
     np.testing.assert_array_equal(log["prediction_rotation_error"][1:], error.rotation)
     assert "prediction_position_error" not in _recorded(monkeypatch, *_trial(scene, ref, duration=0.1))[2]
     _same_log(scene, ref, {}, {"compensate_latency": True})  # no latency: nothing to compensate
+
+
+def test_a_prediction_is_checked_anywhere_along_its_path(scene_for):
+    """planner.compensate_latency: the next plan checks where the last prediction put the object at its
+    own time, on the prediction's planning steps or between two of them (interpolated), up to ``reach``
+    past where the plan takes effect (``job=online``'s plans start when the last is done); NaN outside that
+    path. ``reach`` rolls the prediction on without changing the state it gives."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.4, frames=11)
+    trial, planner = _trial(scene, ref, compensate_latency=True)
+    state = trial.start_plant().state(0.0)
+    nq = scene.plant_model.nq
+    state[1 + nq + scene.index.object_dof[:3]] = [0.3, -0.2, 0.1]  # the apple thrown: a path that moves
+    layout, at = scene.task.layout, 1 + scene.index.object_qpos
+    t, short = planner.predict(0.0, state, 0.05)
+    assert planner.prediction_error(0.1, state) == pytest.approx((np.nan, np.nan), nan_ok=True)
+    t_far, far = planner.predict(0.0, state, 0.05, reach=0.05)
+    assert t == t_far == pytest.approx(0.05)
+    np.testing.assert_array_equal(short, far)  # the state it gives: the same rollout's
+    assert planner.prediction_error(0.05, far) == (0.0, 0.0)
+    _, _, path = planner._path
+    assert len(path) == 11  # from t to 50 ms past where the plan takes effect, in 10 ms steps
+    assert planner.prediction_error(0.1, path[10]) == (0.0, 0.0)
+    moved = np.linalg.norm(path[4, at][:3] - path[3, at][:3])
+    assert moved > 1e-3
+    between = state.copy()
+    between[at] = layout.interpolate(path[3, at], path[4, at], 0.5)
+    position, rotation = planner.prediction_error(0.035, between)
+    assert position < 1e-9 and rotation < 1e-9
+    between[at[:3]] += [0.002, 0.0, 0.0]
+    assert planner.prediction_error(0.035, between)[0] == pytest.approx(0.002)
+    for outside in (-0.005, 0.105):
+        assert np.isnan(planner.prediction_error(outside, between)).all()
+    planner.close()
 
 
 def test_a_prediction_shorter_than_a_planning_step_or_diverged_is_the_state_measured():

@@ -88,7 +88,7 @@ class SlowReplay(Replay):
 
     count = 0
 
-    def plan(self, t, state, rng, ahead=0.0) -> PlanInfo:
+    def plan(self, t, state, rng, ahead=0.0, reach=0.0) -> PlanInfo:
         self.count += 1
         half = len(self.theta) // 2
         time.sleep(0.03)
@@ -136,9 +136,9 @@ def test_a_slow_plan_is_swapped_in_whole_and_the_plant_keeps_the_old_one(apple_r
 class _SlowSampling(PredictiveSampling):
     """Predictive sampling that takes at least 60 ms of wall time a plan."""
 
-    def plan(self, t, state, rng, ahead=0.0) -> PlanInfo:
+    def plan(self, t, state, rng, ahead=0.0, reach=0.0) -> PlanInfo:
         time.sleep(0.06)
-        return super().plan(t, state, rng, ahead)
+        return super().plan(t, state, rng, ahead, reach)
 
 
 @pytest.mark.parametrize("compensate", [False, True])
@@ -166,6 +166,12 @@ def test_online_compensation_plans_from_the_state_predicted_a_plans_compute_ahea
     steps = ahead[1:] / planner.dt  # whole planning steps, at least the 30 ms a plan takes
     np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
     assert (ahead[1:] >= 0.03 - 1e-9).all() and (ahead[1:] < 0.3).all()
+    # each plan checks where the last one predicted the object (planner.switch_error reads it), though
+    # it starts when the last one is done, not on the planning step the last one predicted for: the
+    # prediction's path runs as far again, interpolated between its steps
+    checked = np.array([p.info.prediction[0] for p in loop.plans[2:]])
+    assert len(checked) and np.isfinite(checked).mean() >= 0.5
+    assert (checked[np.isfinite(checked)] < 0.01).all()  # the apple barely moves in this reference
 
 
 def _small_online_run(scene, reference, **options) -> OnlineLoop:

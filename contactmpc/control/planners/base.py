@@ -286,7 +286,8 @@ class Planner:
                 "planner.compensate_latency (compensation=predict: the predictions it checks)"
             )
         self._misses = 0  # (switch_error) consecutive predictions over it
-        self._predicted: tuple[float, np.ndarray] | None = None  # (compensate_latency) the last prediction
+        # (compensate_latency) the last prediction's path: its start time, step and full states
+        self._path: tuple[float, float, np.ndarray] | None = None
         self._switch_at: float | None = None  # reference time of the switch still to come (switch_timestep)
         self._switched: Problem | None = None  # the problem planned from then on
         self.switched_at: float | None = None  # reference time of the first plan on the switched model
@@ -325,7 +326,7 @@ class Planner:
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
         self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
-        self._predicted = None
+        self._path = None
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
         self._actuators = as_index(problem.scene.index.actuators)
         self._attach(problem)
@@ -538,22 +539,31 @@ class Planner:
         ctrl[..., self._actuators] = u
         return ctrl
 
-    def predict(self, t: float, state: np.ndarray, duration: float) -> tuple[float, np.ndarray]:
+    def predict(
+        self, t: float, state: np.ndarray, duration: float, reach: float = 0.0
+    ) -> tuple[float, np.ndarray]:
         """Where the committed policy takes the planning model from ``state`` at control time ``t`` in
         ``duration`` seconds (rounded to whole planning steps): ``(t', state')``, for a plan that takes
         effect then (:attr:`compensate_latency`). One rollout of ``duration / dt`` steps; where it
         diverges, ``duration`` rounds to no step, or the planner runs no rollouts (replay), ``(t, state)``
         as given.
+
+        It keeps the predicted path, from ``t`` to ``reach`` seconds past ``t'`` (the rollout run on that
+        much further), for the next plan's check of where it put the object (:meth:`prediction_error`);
+        none where it made no prediction.
         """
         n = int(round(duration / self.dt))
+        self._path = None
         if n < 1 or self.engine is None:
             return t, state
-        times = self.reference_time(t + np.arange(n) * self.dt)
+        m = n + max(0, int(round(reach / self.dt)))
+        times = self.reference_time(t + np.arange(m) * self.dt)
         ctrl = self.controls(self.theta[None], self.problem.spline.basis(times), times)
         states, _, diverged = self.engine.run(state, ctrl)
         if diverged[0]:
             return t, state
-        ahead = states[0, -1].copy()
+        self._path = (t, self.dt, np.concatenate([state[None], states[0]]))
+        ahead = states[0, n - 1].copy()
         ahead[0] = t + n * self.dt  # the control clock (a rollout's time is the state's plus n steps)
         return t + n * self.dt, ahead
 
@@ -611,7 +621,14 @@ class Planner:
         thetas[:, window] = candidates
         return window, candidates, thetas
 
-    def plan(self, t: float, state: np.ndarray, rng: np.random.Generator, ahead: float = 0.0) -> PlanInfo:
+    def plan(
+        self,
+        t: float,
+        state: np.ndarray,
+        rng: np.random.Generator,
+        ahead: float = 0.0,
+        reach: float = 0.0,
+    ) -> PlanInfo:
         """One planning iteration at control time ``t`` from the plant's state; commits the result.
 
         Args:
@@ -621,15 +638,16 @@ class Planner:
             ahead: seconds after ``t`` at which the plan takes effect (its latency). With
                 :attr:`compensate_latency` the plan starts from the state :meth:`predict` gives for
                 then, its prediction counted in its compute time; else, or at 0, from ``state`` at ``t``.
+            reach: (:attr:`compensate_latency`) seconds past ``t + ahead`` the prediction's path runs on,
+                so that the next plan finds where the object was predicted to be even when it starts
+                later than this plan takes effect (``job=online``, whose plans take as long as they
+                take); 0: up to ``t + ahead`` (the simulated loop's next plan starts there).
         """
         start = time.perf_counter()
         takes_effect = t + ahead
         prediction = self.prediction_error(t, state) if self.compensate_latency else None
         if ahead and self.compensate_latency:  # plan from where the plant will be when the plan acts
-            predicted = self.predict(t, state, ahead)
-            if predicted[0] != t:
-                self._predicted = (predicted[0], self.object_qpos(predicted[1]))
-            t, state = predicted
+            t, state = self.predict(t, state, ahead, reach)
         s = self.reference_time(t)  # where the plan is on the reference: t unless it is paced
         if self.pace_lag is not None:
             self.pace(takes_effect, s, state)
@@ -659,12 +677,25 @@ class Planner:
 
     def prediction_error(self, t: float, state: np.ndarray) -> tuple[float, float]:
         """``(position m, orientation rad)``: the free object's errors between ``state``, measured at
-        control time ``t``, and the last prediction (:meth:`predict`, :attr:`compensate_latency`) where it
-        was made for ``t``; NaN where none was."""
-        if self._predicted is None or abs(self._predicted[0] - t) > 1e-9:
+        control time ``t``, and where the last prediction (:meth:`predict`, :attr:`compensate_latency`) put
+        it at ``t`` (between two of its planning steps: the configuration interpolated between them); NaN
+        where its path does not reach ``t``, or none was made."""
+        if self._path is None:
             return float("nan"), float("nan")
+        t0, dt, path = self._path
+        u = (t - t0) / dt
+        k = int(round(u))
         layout = self.problem.scene.task.layout
-        error = layout.error(self.object_qpos(state), self._predicted[1])
+        if abs(u - k) * dt <= 1e-9:  # on one of its steps
+            if not 0 <= k < len(path):
+                return float("nan"), float("nan")
+            expected = self.object_qpos(path[k])
+        else:
+            k = int(np.floor(u))
+            if not 0 <= k < len(path) - 1:
+                return float("nan"), float("nan")
+            expected = layout.interpolate(self.object_qpos(path[k]), self.object_qpos(path[k + 1]), u - k)
+        error = layout.error(self.object_qpos(state), expected)
         return float(error.position), float(error.rotation)
 
     def samples_at(self, t: float) -> int:
