@@ -577,8 +577,18 @@ def _online_row(r: dict) -> str:
         f"| {Fmt.num(slowdown, 0)} | {Fmt.num(factor, 3)} "
         f"| {_ms(r, 'replan_interval_median')} | {_ms(r, 'plan_latency_median')} "
         f"| {yes[bool(r.get('completed'))]} | {yes[bool(r.get('finished_cleanly'))]} "
-        f"| {Fmt.num(r.get('ttf', math.nan), 2)} | {r.get('concurrent_trials') or '—'} |"
+        f"| {Fmt.num(r.get('ttf', math.nan), 2)} | {r.get('concurrent_trials') or '—'} | {_switch(r)} |"
     )
+
+
+def _switch(r: dict) -> str:
+    """When a run's planning model switched (``switch_time``), in seconds after the first expected contact;
+    "never"; "—" for a run without a switch."""
+    if "switch_time" not in r:
+        return "—"
+    if r["switch_time"] is None or r.get("contact_span_start") is None:
+        return "never"
+    return f"+{r['switch_time'] - r['contact_span_start']:.2f}"
 
 
 #: The method's trials on seeds it was not chosen on, kept apart from the sweep's records.
@@ -1376,15 +1386,18 @@ def online(study) -> str:
     cols = (
         "task", "method", "seed", "slowdown", "real-time factor", "replan interval, median (ms)",
         "plan latency, median (ms)", "completed", "finished cleanly", "TTF", "trials at once",
+        "model switched (s)",
     )  # fmt: skip
     name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {online_method(r)}"  # noqa: E731
     table, prose, _ = by_slowdown(records, name)
     return (
         head
-        + pipe_table(cols, "lllrrrrllrr", rows)
+        + pipe_table(cols, "lllrrrrllrrr", rows)
         + "\n*Trials at once*: the most trials running on the machine while the run ran, itself included "
         "(the record's `concurrent_trials`; — where the record predates it): a run beside others planned on "
-        "a busier machine, so its plans took longer than the same run's alone.\n"
+        "a busier machine, so its plans took longer than the same run's alone. *Model switched*: when the "
+        "planning model switched (`planner.switch_timestep`; the record's `switch_time`), in seconds after "
+        "the first expected contact; — for a method without a switch.\n"
         + "\nHow many threads real time needs:\n\n"
         + markdown(pd.DataFrame(table))
         + "\n- "
