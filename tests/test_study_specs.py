@@ -252,14 +252,18 @@ def test_the_method_study_says_how_an_unsettled_free_object_ended() -> None:
 
 def test_the_method_study_s_online_row_says_how_many_trials_ran_at_once() -> None:
     """_online_row: a run's row ends with the trials running at once while it ran (its record's
-    concurrent_trials), a dash for a record without it."""
+    concurrent_trials), a dash for a record without it, then when its planning model switched."""
     spec = Study("method").spec
     run = {"task": "paper_apple", "variant": spec.METHOD, "seed": 0, "slowdown": 1.0, "real_time_factor": 1.0,
            "replan_interval_median": 0.1, "plan_latency_median": 0.1, "completed": True,
            "finished_cleanly": False, "ttf": 1.0}  # fmt: skip
-    assert spec._online_row(run | {"concurrent_trials": 5}).endswith("| yes | no | 1.00 | 5 |")
+    assert spec._online_row(run | {"concurrent_trials": 5}).endswith("| yes | no | 1.00 | 5 | — |")
     assert spec._online_row(run).startswith(f"| apple | {spec.METHOD} | 0 | 1 |")
-    assert spec._online_row(run).endswith("| 1.00 | — |")
+    assert spec._online_row(run).endswith("| 1.00 | — | — |")
+    # ... then when its planning model switched, after the first expected contact (switch_timestep)
+    switching = run | {"contact_span_start": 14.45, "switch_time": 16.78}
+    assert spec._online_row(switching).endswith("| — | +2.33 |")
+    assert spec._online_row(switching | {"switch_time": None}).endswith("| — | never |")
     # a run beside others is named apart from the same method's runs alone
     assert spec.online_method(run | {"concurrent_trials": 5}) == f"{spec.METHOD}, beside 4 other trials"
     assert spec.online_method(run | {"concurrent_trials": 2}) == f"{spec.METHOD}, beside 1 other trial"
