@@ -50,6 +50,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "grasp_release_ahead": "full",
     "grasp_release_ahead_acquire": "full",
     "grasp_held_eased": "full",
+    "grasp_held_eased_refined": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -100,6 +101,16 @@ NAMED_METHODS: dict[str, dict[str, str]] = {
         "compensation": "predict",
         "effort": "acquire",
         "carry": "held",
+    },
+    "grasp_held_eased_refined": {
+        "variant": "grasp_held_eased_refined",
+        "wrist": "acquire",
+        "shaping": "clearance",
+        "release": "eased",
+        "compensation": "predict",
+        "effort": "acquire",
+        "carry": "held",
+        "rollout": "fine_on_error",
     },
 }
 """Variants of today that name a combination of groups (``conf/variant/<name>.yaml``'s defaults), read

@@ -125,8 +125,8 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
     )
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
     # (wrist, wrist_clearance) or that are the project's methods (grasp_release and those that add groups
-    # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased)
-    assert len(VARIANTS) <= 11
+    # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased, grasp_held_eased_refined)
+    assert len(VARIANTS) <= 12
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -359,6 +359,31 @@ def test_grasp_held_eased_is_the_method_with_the_carry_and_the_release_of_its_le
         labels.method_name({"variant": "grasp_release_ahead_acquire", **lever_choices})
         == "grasp_release_ahead_acquire+carry=held"
     )
+
+
+def test_grasp_held_eased_refined_is_the_method_with_the_model_refined_on_misprediction():
+    """variant=grasp_held_eased_refined composes the trial of grasp_held_eased with rollout=fine_on_error
+    (the method study's records of the latter are named by it), and planner.switch_error on."""
+    from omegaconf import OmegaConf
+
+    def trial(*overrides):
+        cfg = compose_config(["task=paper_apple", *overrides], return_hydra_config=True)
+        choices = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS}
+        cfg = OmegaConf.to_container(cfg, resolve=False)
+        cfg.pop("hydra")
+        return cfg, choices
+
+    named, choices = trial("variant=grasp_held_eased_refined")
+    groups, group_choices = trial("variant=grasp_held_eased", "rollout=fine_on_error")
+    assert named == groups and choices == group_choices
+    assert named["planner"]["switch_error"] == 0.001 and named["planner"]["switch_timestep"] == 0.005
+    for variant in ("grasp_held_eased_refined", "grasp_held_eased"):
+        assert labels.method_name({"variant": variant, **choices}) == "grasp_held_eased_refined"
+    assert (
+        labels.method_name({"variant": "grasp_held_eased+rollout=fine_on_error"})
+        == "grasp_held_eased_refined"
+    )
+    assert labels.method_name({**choices, "variant": "full", "rollout": "paper"}) == "grasp_held_eased"
 
 
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():

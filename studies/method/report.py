@@ -23,7 +23,7 @@ from analysis.prose import glance_row, median, of, seeds, span
 from analysis.study import REPO, sweep_params
 from analysis.summarize import Fmt, Stat, markdown, pipe_table, summarize
 from analysis.timeline import timeline
-from contactmpc.labels import GROUPS, method_name
+from contactmpc.labels import GROUPS, NAMED_VARIANTS, method_labels, method_name
 
 QUESTION = (
     "Does one named method (the paper tasks' default: grasp_held_eased, or before it one of the steps it "
@@ -36,7 +36,7 @@ TITLE = "The method: one method for the paper's four tasks"
 EXPERIMENT = "method"
 EXPERIMENTS = [
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_on_error "
-    "hydra.sweep.dir=studies/method/records",
+    "hydra.sweep.dir=studies/method/records  # = variant=grasp_held_eased_refined",
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_from_contact "
     "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_after_grasp "
@@ -60,7 +60,7 @@ HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
 ORDER = (
-    "grasp_held_eased+rollout=fine_on_error",
+    "grasp_held_eased_refined",
     "grasp_held_eased+rollout=fine_from_contact",
     "grasp_held_eased+rollout=fine_after_grasp",
     "grasp_held_eased+rollout=fine_budget",
@@ -416,12 +416,28 @@ def others() -> list[str]:
 
 def built_from(method: str) -> str | None:
     """The method of :data:`ORDER` that ``method`` adds a step to: the name before its last ``+group=member``
-    where that is one (``grasp_held_eased`` of ``grasp_held_eased+rollout=fine``), else the next in
-    :data:`ORDER`; ``None`` for the last."""
+    where that is one (``grasp_held_eased`` of ``grasp_held_eased+rollout=fine``), else the method of
+    :data:`ORDER` whose groups differ from its own in one group (``grasp_held_eased`` of
+    ``grasp_held_eased_refined``), else the next in :data:`ORDER`; ``None`` for the last."""
     if "+" in method and (base := method.rsplit("+", 1)[0]) in ORDER:
         return base
+    if (step := _one_group_off(method)) is not None:
+        return step
     later = ORDER[ORDER.index(method) + 1 :]
     return next((m for m in later if not m.startswith(method + "+")), None)
+
+
+def _one_group_off(method: str) -> str | None:
+    """The first method of :data:`ORDER` after ``method`` whose labels differ from its own in one group
+    (a group set off its default on top of it: ``grasp_held_eased`` of ``grasp_held_eased_refined``);
+    ``None`` where there is none."""
+    mine = method_labels({"variant": method})
+    for other in ORDER[ORDER.index(method) + 1 :]:
+        theirs = method_labels({"variant": other})
+        off = [g for g in GROUPS if mine[g] != theirs[g]]
+        if len(off) == 1 and theirs[off[0]] == GROUPS[off[0]] and mine["variant"] != theirs["variant"]:
+            return other
+    return None
 
 
 def pairs() -> list[tuple[str, str]]:
@@ -1729,25 +1745,41 @@ def switched(trials: pd.DataFrame) -> str:
     )
 
 
+def coarser(method: str) -> str | None:
+    """The method of :data:`ORDER` that ``method`` is with the scene's planning model (``rollout=paper``)
+    where ``method`` selects another (``grasp_held_eased`` of ``grasp_held_eased_refined`` and of
+    ``grasp_held_eased+rollout=fine``); ``None`` where it does not, or that method is not in it."""
+    labels = method_labels({"variant": method})
+    if labels["rollout"] == GROUPS["rollout"]:
+        return None
+    variant = NAMED_VARIANTS.get(labels["variant"], labels["variant"])  # (a named one would set it again)
+    base = method_name({**labels, "variant": variant, "rollout": GROUPS["rollout"]})
+    return base if base in ORDER and base != method else None
+
+
 def finer_models(df: pd.DataFrame) -> str:
-    """Per task, each method of :data:`ORDER` that plans :data:`METHOD` with another planning model (a
-    ``+rollout=`` member on top of it) against :data:`METHOD` on the same seeds: completed and finished
-    cleanly (the tests are in *Each step, on the same seeds*)."""
+    """Per task, each method of :data:`ORDER` with another planning model than the scene's (a ``rollout``
+    member) against the same method with the scene's (:func:`coarser`) on the same seeds: completed and
+    finished cleanly (the tests are in *Each step, on the same seeds*), and when each switched its model."""
     ok = counted(df)
-    finer = [m for m in ORDER if m.startswith(f"{METHOD}+rollout=")]
+    finer = {m: base for m in ORDER if (base := coarser(m)) is not None}
     lines = []
     for task in ordered(ok["task"].unique(), TASK_ORDER) if len(ok) else []:
-        base = cell(ok, task, METHOD).set_index("seed")
         parts = []
-        for m in finer:
+        for m, coarse in finer.items():
+            base = cell(ok, task, coarse).set_index("seed")
             mine = cell(ok, task, m)
             mine = mine[mine["seed"].isin(base.index)]
             if not len(mine):
                 continue
             theirs = base.loc[mine["seed"]]
             n = len(mine)
+            rollout = method_labels({"variant": m})["rollout"]
+            name = (
+                f"`{m[len(coarse) + 1 :]}`" if m.startswith(coarse + "+") else f"`{m}` (`rollout={rollout}`)"
+            )
             parts.append(
-                f"`{m.removeprefix(METHOD + '+')}` completes {of(int(mine['completed'].sum()), n)} and "
+                f"{name} completes {of(int(mine['completed'].sum()), n)} and "
                 f"finishes {int(mine['finished_cleanly'].sum())} cleanly, against "
                 f"{int(theirs['completed'].sum())} and {int(theirs['finished_cleanly'].sum())} (seeds "
                 f"{seeds(sorted(mine['seed']))}){switched(mine)}"
@@ -1757,9 +1789,8 @@ def finer_models(df: pd.DataFrame) -> str:
     if not lines:
         return ""
     return (
-        f"\nThe full trials with a finer planning model than `{METHOD}`'s, against it on the same seeds:\n\n"
-        + ";\n".join(lines)
-        + ".\n"
+        "\nThe full trials with a finer planning model, each against the same method on the scene's planning "
+        "model (`rollout=paper`) on the same seeds:\n\n" + ";\n".join(lines) + ".\n"
     )
 
 
