@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import time
 
 import imageio.v3 as iio
 import mujoco
@@ -345,11 +344,13 @@ def test_stapler_press_plant_matches_planner(scene_for):
     assert hinge_gap < 0.02
 
 
-# ----------------------------------------------------------------------------------- step cost
+# ------------------------------------------------------------------------------------ a squeeze
 
 
-def test_contact_step_costs_tens_of_microseconds(scene_for):
-    """One ``mj_step`` of the hand squeezing the apple (contacts active): tens of microseconds."""
+def test_the_hand_squeezing_the_apple_touches_it_with_force(scene_for):
+    """The fingers closed on the apple from a pre-grasp pose: several contacts, pressing (a state whose step
+    cost ``job=benchmark`` and ``job=profile`` measure; a timed assertion here would test the machine's
+    load, not the code)."""
     scene = scene_for("apple")
     m = scene.plant_model
     pre = _finger_pose(scene.task.hand_home, (0.3, 0.4, 0.4))
@@ -361,14 +362,6 @@ def test_contact_step_costs_tens_of_microseconds(scene_for):
     for _ in range(300):
         mujoco.mj_step(m, d)
     assert d.ncon >= 3 and _hand_object_force(scene, d) > 1.0
-    best = np.inf
-    for _ in range(5):
-        t0 = time.perf_counter()
-        for _ in range(400):
-            mujoco.mj_step(m, d)
-        best = min(best, (time.perf_counter() - t0) / 400)
-    print(f"\n[step cost] mj_step with {d.ncon} contacts: {best * 1e6:.1f} us")
-    assert best < 100e-6
 
 
 # -------------------------------------------------------------------------------------- render
