@@ -25,6 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from analysis._cli import fail
+from contactmpc.labels import method_name
 from contactmpc.records import RECORD_NAME, SERIES_NAME, one_line
 
 POSITION_THRESHOLD = 0.04  # m: position error that counts as losing the object (sustained for `gap`)
@@ -367,7 +368,7 @@ def timeline(run_dir: str | Path, png: str | Path, **thresholds: float) -> tuple
     span = facts.pop("span")
     columns = [series.get(k) for k in ("time", "contacts", "expected_contacts", "object_position_error")]
     lines = diagnose(*columns, milestones=milestones, names=names, **facts, **thresholds)
-    ttf, label = record.get("ttf"), record.get("variant") or record.get("planner")
+    ttf, label = record.get("ttf"), method_name(record) or record.get("planner")  # (the groups' name)
     head = f"{record.get('task')} / {label} / seed {record.get('seed')}: status {record.get('status')}, "
     head += f"TTF {'n/a' if ttf is None else f'{ttf:.2f}'}, completed {facts['completed']}"
     notes = [n for n in (note, note2) if n]

@@ -177,6 +177,13 @@ def test_cli_end_to_end(tmp_path: Path, capsys) -> None:
     assert text[1].startswith("first: lost contact at t=7.00 s (expected 11 links, touching 0")
     assert "milestones: lifted at t=4.05 s, handed_off not reached" in text  # from AppleTask.conditions
     assert "first: lost contact at t=7.00 s" in out.out and not out.err
+    # a method named by its groups: the name the analysis gives it, not the variant label alone
+    record = json.loads((run / "trial.json").read_text())
+    (run / "trial.json").write_text(
+        json.dumps(record | {"variant": "grasp_held_eased", "rollout": "fine_on_error"})
+    )
+    assert main([str(run)]) == 0
+    assert (run / "timeline.txt").read_text().startswith("apple / grasp_held_eased_refined / seed 0: ")
 
 
 def test_cli_errors_and_partial_runs(tmp_path: Path, capsys) -> None:
