@@ -131,6 +131,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "num_plans": "Int64",
     "diverged_rollouts": "Int64",
     "switch_time": "float",
+    "switch_back_time": "float",
     "num_samples": "Int64",
     "horizon": "float",
     "replan_period": "float",

@@ -310,6 +310,40 @@ def test_switch_timestep_plans_on_the_finer_model_from_after_the_first_contact(
         bound(coarse, switch_timestep=0.0055)
 
 
+def test_switch_back_after_plans_on_the_scene_s_model_again_from_the_release(scene_for):
+    """planner.switch_back_after: a switched planner plans its own problem on the scene's planning model
+    again from that long after the reference's last expected contact on, once, as a planner that never
+    switched plans from the same nominal; not before, and never where it had not switched. It needs a model
+    to leave."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:4] = False
+    ref.contact_active[8:] = False  # the reference lets go
+
+    def bound(**options):
+        planner = PredictiveSampling(num_samples=6, horizon=0.1, replan_period=0.05, nthread=1, **options)
+        trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
+        return planner, trial
+
+    planner, trial = bound(switch_timestep=0.005, switch_after=0.0, switch_back_after=0.0)
+    off, _ = bound()
+    first, last = trial.problem.first_contact, trial.problem.last_contact
+    assert last is not None and last > first + 0.1
+    state = trial.start_plant().state(0.0)
+    assert planner.phase(first) and planner.dt == 0.005
+    assert not planner.phase(last - 0.05) and planner.dt == 0.005 and planner.switched_back_at is None
+    assert_plans_alike(planner, off, last, state)  # it goes back in this plan
+    assert planner.dt == 0.01 and planner.problem is trial.problem and planner.switched_back_at == last
+    assert planner.engine.model.opt.timestep == 0.01
+    assert not planner.phase(last + 0.5) and planner.dt == 0.01  # once
+    unswitched, trial = bound(switch_timestep=0.005, switch_after=None, switch_back_after=0.0)
+    assert not unswitched.phase(last) and unswitched.dt == 0.01 and unswitched.switched_back_at is None
+    for p in (planner, off, unswitched):
+        p.close()
+    with pytest.raises(ConfigError, match="switch_back_after needs planner.switch_timestep"):
+        PredictiveSampling(switch_back_after=0.0)
+
+
 def test_switch_error_switches_once_the_model_has_mispredicted_the_object_in_a_row(
     scene_for, late_contact_reference
 ):

@@ -416,7 +416,7 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     rollout=fine_budget steps it at 5 ms within the paper point's rollout steps a plan;
     rollout=fine_after_grasp keeps 10 ms and switches to 5 ms 2 s after the first expected contact,
     rollout=fine_from_contact at it, within the paper point's rollout steps; rollout=fine_on_error once the
-    model has mispredicted the object."""
+    model has mispredicted the object, rollout=fine_grasp_on_error then back at the release."""
     base = compose(["task=apple"])
     assert compose(["task=apple", "rollout=paper"]) == base
     fine = compose(["task=apple", "rollout=fine"])
@@ -440,3 +440,6 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     on_error = compose(["task=apple", "rollout=fine_on_error"]).planner
     assert (on_error.switch_timestep, on_error.switch_after, on_error.switch_error) == (0.005, None, 0.001)
     assert on_error.step_budget == 128 * 250
+    assert on_error.switch_back_after is None and base.planner.switch_back_after is None
+    grasp = compose(["task=apple", "rollout=fine_grasp_on_error"]).planner  # ... and back at the release
+    assert {**grasp, "switch_back_after": None} == on_error and grasp.switch_back_after == 0.0

@@ -196,8 +196,10 @@ def summarize(
             series["object_qpos"], trial.track.object_qpos[-1], held, series["time"], hold, let_go
         )
     switch = {}
-    if trial.planner.switch_timestep is not None:  # when its planning model switched
+    if trial.planner.switch_timestep is not None:  # when its planning model switched (and back)
         switch["switch_time"] = trial.planner.switched_at
+        if trial.planner.switch_back_after is not None:
+            switch["switch_back_time"] = trial.planner.switched_back_at
     names = ("object_position_error", "object_rotation_error", "object_articulation_error")
     windows = errors_by_window(series["time"], {k: series[k] for k in names}, ttf.span)
     return {

@@ -184,6 +184,9 @@ class Planner:
             ``switch_count`` predictions (:attr:`PlanInfo.prediction`, ``compensate_latency``) each missed the
             free object's position by more than this many metres. ``None``: by time alone.
         switch_count: consecutive predictions over ``switch_error`` that switch.
+        switch_back_after: seconds after the reference's last expected contact (where it lets go) at which
+            a switched planner goes back to the scene's planning model (its own problem, as bound), once;
+            ``None``: it keeps the switched model to the end.
     """
 
     needs_rollouts = True
@@ -224,6 +227,7 @@ class Planner:
         switch_after: float | None = 2.0,
         switch_error: Annotated[float, Gt(0)] | None = None,
         switch_count: Annotated[int, Ge(1)] = 2,
+        switch_back_after: float | None = None,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -280,6 +284,9 @@ class Planner:
         self.switch_after = None if switch_after is None else float(switch_after)
         self.switch_error = None if switch_error is None else float(switch_error)
         self.switch_count = int(switch_count)
+        self.switch_back_after = None if switch_back_after is None else float(switch_back_after)
+        if switch_back_after is not None and switch_timestep is None:
+            raise ConfigError("planner.switch_back_after needs planner.switch_timestep (the model it leaves)")
         if switch_error is not None and (switch_timestep is None or not compensate_latency):
             raise ConfigError(
                 "planner.switch_error needs planner.switch_timestep (the model it switches to) and "
@@ -291,6 +298,10 @@ class Planner:
         self._switch_at: float | None = None  # reference time of the switch still to come (switch_timestep)
         self._switched: Problem | None = None  # the problem planned from then on
         self.switched_at: float | None = None  # reference time of the first plan on the switched model
+        self.switched_back_at: float | None = None  # (switch_back_after) ... of the first plan back
+        self._back: tuple[float, Problem] | None = (
+            None  # (switch_back_after) when, and the problem to go back to
+        )
 
     # --- the two methods a planner implements ------------------------------------------------
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
@@ -345,9 +356,12 @@ class Planner:
         )
         # switch_timestep: the problem on the other planning model, planned from its switch on
         self._switch_at, self._switched, self._misses, self.switched_at = None, None, 0, None
+        self._back, self.switched_back_at = None, None
         if self.switch_timestep is not None and first is not None:
             self._switch_at = np.inf if self.switch_after is None else first + self.switch_after
             self._switched = problem.stepped(self.switch_timestep)
+            if self.switch_back_after is not None and problem.last_contact is not None:
+                self._back = (problem.last_contact + self.switch_back_after, problem)
 
     def _attach(self, problem: Problem) -> None:
         """Plan ``problem`` from now on: its planning model's step and horizon steps, its track's grip
@@ -384,7 +398,7 @@ class Planner:
             True where it switched now.
         """
         if self._switched is None:
-            return False
+            return self._switch_back(s)
         due = s >= self._switch_at - 1e-9
         first = self.problem.first_contact
         if self.switch_error is not None and prediction is not None and s >= first - 1e-9:
@@ -394,6 +408,17 @@ class Planner:
             return False
         problem, self._switch_at, self._switched = self._switched, None, None
         self.switched_at = float(s)
+        self.close()
+        self._attach(problem)
+        return True
+
+    def _switch_back(self, s: float) -> bool:
+        """(``switch_back_after``) From its time on, once the planner has switched, plan its own problem on
+        the scene's planning model again, once; True where it went back now."""
+        if self._back is None or self.switched_at is None or s < self._back[0] - 1e-9:
+            return False
+        problem, self._back = self._back[1], None
+        self.switched_back_at = float(s)
         self.close()
         self._attach(problem)
         return True
