@@ -1014,3 +1014,23 @@ def test_the_method_study_says_which_levers_meet_the_target_where(monkeypatch) -
     assert f"On all {len(tasks)} tasks: none; on none by any lever: {', '.join(tasks[1:])}." in text
     monkeypatch.setattr(spec, "lever_frame", lambda study: frame.iloc[:0])
     assert spec.levers_target(None) == ""
+
+
+def test_the_method_study_says_when_each_trial_switched_its_planning_model() -> None:
+    """switched: per seed, when the planning model switched after the first expected contact (and back after
+    the last, where the record says); the seeds with no switch time; nothing where no record has one."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    rows = [
+        dict(
+            seed=0, switch_time=9.01, contact_span_start=7.82, switch_back_time=31.11, contact_span_end=30.94
+        ),
+        dict(
+            seed=1, switch_time=None, contact_span_start=7.82, switch_back_time=None, contact_span_end=30.94
+        ),
+    ]
+    text = spec.switched(pd.DataFrame(rows))
+    assert "0: +1.19 s, back +0.17 s after the last" in text and "no switch time on seeds 1" in text
+    assert spec.switched(pd.DataFrame(rows).drop(columns="switch_back_time")).count("back") == 0
+    assert spec.switched(pd.DataFrame(rows[1:])) == spec.switched(pd.DataFrame([dict(seed=0)])) == ""

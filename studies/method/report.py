@@ -1731,14 +1731,21 @@ def lift_replays(rows: pd.DataFrame) -> str:
 
 def switched(trials: pd.DataFrame) -> str:
     """When the trials' planning model switched (the records' ``switch_time``, after the first expected
-    contact: ``contact_span_start``), per seed; those that never did; "" where no record says (records
-    before the field, or a member without a switch)."""
+    contact: ``contact_span_start``; and back, ``switch_back_time``, after the last: ``contact_span_end``),
+    per seed; those that never did; "" where no record says (records before the field, or a member without
+    a switch)."""
     if "switch_time" not in trials or not trials["switch_time"].notna().any():
         return ""
     told = trials[trials["switch_time"].notna()].sort_values("seed")
-    after = ", ".join(
-        f"{int(r.seed)}: +{r.switch_time - r.contact_span_start:.2f} s" for r in told.itertuples()
-    )
+    back = "switch_back_time" in told and told["switch_back_time"].notna().any()
+
+    def when(r) -> str:
+        text = f"{int(r.seed)}: +{r.switch_time - r.contact_span_start:.2f} s"
+        if back and pd.notna(r.switch_back_time):  # (switch_back_after) after the last expected contact
+            text += f", back +{r.switch_back_time - r.contact_span_end:.2f} s after the last"
+        return text
+
+    after = ", ".join(when(r) for r in told.itertuples())
     never = trials[trials["switch_time"].isna() & trials["seed"].notna()]
     return f"; it switched (seed: after the first expected contact) {after}" + (
         f"; no switch time on seeds {seeds(sorted(never['seed']))} (it never switched, or the trial ran "
