@@ -102,20 +102,16 @@ NAMED_METHODS: dict[str, dict[str, str]] = {
         "effort": "acquire",
         "carry": "held",
     },
-    "grasp_held_eased_refined": {
-        "variant": "grasp_held_eased_refined",
-        "wrist": "acquire",
-        "shaping": "clearance",
-        "release": "eased",
-        "compensation": "predict",
-        "effort": "acquire",
-        "carry": "held",
-        "rollout": "fine_on_error",
-    },
 }
 """Variants of today that name a combination of groups (``conf/variant/<name>.yaml``'s defaults), read
 as :data:`OLD_VARIANTS` are: the method's name for those groups (``variant=grasp_release
 compensation=predict`` is ``grasp_release_ahead``)."""
+# grasp_held_eased with its planning model refined once it mispredicts the object
+NAMED_METHODS["grasp_held_eased_refined"] = {
+    **NAMED_METHODS["grasp_held_eased"],
+    "variant": "grasp_held_eased_refined",
+    "rollout": "fine_on_error",
+}
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}
 

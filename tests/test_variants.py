@@ -331,23 +331,26 @@ def test_compensation_is_a_group_and_names_the_method_with_it():
     )
 
 
+def _paper_apple(*overrides) -> tuple[dict, dict]:
+    """The paper apple's config with ``overrides`` (the hydra node left out) and its method groups'
+    choices."""
+    cfg = compose_config(["task=paper_apple", *overrides], return_hydra_config=True)
+    choices = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS}
+    cfg = OmegaConf.to_container(cfg, resolve=False)
+    cfg.pop("hydra")
+    return cfg, choices
+
+
 def test_grasp_held_eased_is_the_method_with_the_carry_and_the_release_of_its_levers():
     """variant=grasp_held_eased composes the trial of grasp_release_ahead_acquire with carry=held and
     release=eased, and the trial the method study's lever ran as overrides (carry=held
     sampler.release.noise=1.0 sampler.release.blend=1.0); its records are named by it, the lever's by the
     method it is on."""
 
-    def trial(*overrides):
-        cfg = compose_config(["task=paper_apple", *overrides], return_hydra_config=True)
-        choices = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS}
-        cfg = OmegaConf.to_container(cfg, resolve=False)
-        cfg.pop("hydra")
-        return cfg, choices
-
-    named, choices = trial("variant=grasp_held_eased")
-    assert trial()[0] == named  # the paper tasks' default
-    groups, _ = trial("variant=grasp_release_ahead_acquire", "carry=held", "release=eased")
-    lever, lever_choices = trial(
+    named, choices = _paper_apple("variant=grasp_held_eased")
+    assert _paper_apple()[0] == named  # the paper tasks' default
+    groups, _ = _paper_apple("variant=grasp_release_ahead_acquire", "carry=held", "release=eased")
+    lever, lever_choices = _paper_apple(
         "variant=grasp_release_ahead_acquire",
         "carry=held",
         "sampler.release.noise=1.0",
@@ -364,17 +367,8 @@ def test_grasp_held_eased_is_the_method_with_the_carry_and_the_release_of_its_le
 def test_grasp_held_eased_refined_is_the_method_with_the_model_refined_on_misprediction():
     """variant=grasp_held_eased_refined composes the trial of grasp_held_eased with rollout=fine_on_error
     (the method study's records of the latter are named by it), and planner.switch_error on."""
-    from omegaconf import OmegaConf
-
-    def trial(*overrides):
-        cfg = compose_config(["task=paper_apple", *overrides], return_hydra_config=True)
-        choices = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS}
-        cfg = OmegaConf.to_container(cfg, resolve=False)
-        cfg.pop("hydra")
-        return cfg, choices
-
-    named, choices = trial("variant=grasp_held_eased_refined")
-    groups, group_choices = trial("variant=grasp_held_eased", "rollout=fine_on_error")
+    named, choices = _paper_apple("variant=grasp_held_eased_refined")
+    groups, group_choices = _paper_apple("variant=grasp_held_eased", "rollout=fine_on_error")
     assert named == groups and choices == group_choices
     assert named["planner"]["switch_error"] == 0.001 and named["planner"]["switch_timestep"] == 0.005
     for variant in ("grasp_held_eased_refined", "grasp_held_eased"):
