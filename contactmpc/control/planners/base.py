@@ -299,9 +299,8 @@ class Planner:
         self._switched: Problem | None = None  # the problem planned from then on
         self.switched_at: float | None = None  # reference time of the first plan on the switched model
         self.switched_back_at: float | None = None  # (switch_back_after) ... of the first plan back
-        self._back: tuple[float, Problem] | None = (
-            None  # (switch_back_after) when, and the problem to go back to
-        )
+        # (switch_back_after) when to go back, and the problem to go back to
+        self._back: tuple[float, Problem] | None = None
 
     # --- the two methods a planner implements ------------------------------------------------
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
@@ -392,10 +391,11 @@ class Planner:
         """Enter the planning phase of reference time ``s``: from the switch on (``switch_timestep``: at
         ``switch_after``, or, with ``switch_error``, once the last ``switch_count`` ``prediction`` s, this
         plan's the last, each missed the object by more than it), plan the problem on the other planning
-        model, with a new rollout engine; once (:attr:`switched_at` then says when).
+        model, with a new rollout engine; once (:attr:`switched_at` then says when). With
+        ``switch_back_after``, from then on the planner's own problem again, once (:attr:`switched_back_at`).
 
         Returns:
-            True where it switched now.
+            True where it switched (or went back) now.
         """
         if self._switched is None:
             return self._switch_back(s)
