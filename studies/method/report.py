@@ -430,15 +430,21 @@ def built_from(method: str) -> str | None:
     return next((m for m in later if not m.startswith(method + "+")), None)
 
 
+def _groups(method: str) -> tuple[str, dict[str, str]]:
+    """The variant a method of :data:`ORDER` builds on (``full`` for a named one) and its groups' members."""
+    labels = method_labels({"variant": method})
+    return NAMED_VARIANTS.get(labels["variant"], labels["variant"]), {g: labels[g] for g in GROUPS}
+
+
 def _one_group_off(method: str) -> str | None:
-    """The first method of :data:`ORDER` after ``method`` whose labels differ from its own in one group
-    (a group set off its default on top of it: ``grasp_held_eased`` of ``grasp_held_eased_refined``);
-    ``None`` where there is none."""
-    mine = method_labels({"variant": method})
+    """The first method of :data:`ORDER` after ``method`` on the same variant whose groups differ from its
+    own in one group, at its default there (a group set on top of it: ``grasp_held_eased`` of
+    ``grasp_held_eased_refined``); ``None`` where there is none."""
+    base, mine = _groups(method)
     for other in ORDER[ORDER.index(method) + 1 :]:
-        theirs = method_labels({"variant": other})
+        on, theirs = _groups(other)
         off = [g for g in GROUPS if mine[g] != theirs[g]]
-        if len(off) == 1 and theirs[off[0]] == GROUPS[off[0]] and mine["variant"] != theirs["variant"]:
+        if on == base and len(off) == 1 and theirs[off[0]] == GROUPS[off[0]]:
             return other
     return None
 
@@ -1740,7 +1746,7 @@ def switched(trials: pd.DataFrame) -> str:
     back = "switch_back_time" in told and told["switch_back_time"].notna().any()
 
     def when(r) -> str:
-        text = f"{int(r.seed)}: +{r.switch_time - r.contact_span_start:.2f} s"
+        text = f"{int(r.seed)}: {_switch(r._asdict())} s"
         if back and pd.notna(r.switch_back_time):  # (switch_back_after) after the last expected contact
             text += f", back +{r.switch_back_time - r.contact_span_end:.2f} s after the last"
         return text
@@ -1759,12 +1765,11 @@ def coarser(method: str) -> str | None:
     """The method of :data:`ORDER` that ``method`` is with the scene's planning model (``rollout=paper``)
     where ``method`` selects another (``grasp_held_eased`` of ``grasp_held_eased_refined`` and of
     ``grasp_held_eased+rollout=fine``); ``None`` where it does not, or that method is not in it."""
-    labels = method_labels({"variant": method})
-    if labels["rollout"] == GROUPS["rollout"]:
+    base, groups = _groups(method)
+    if groups["rollout"] == GROUPS["rollout"]:
         return None
-    variant = NAMED_VARIANTS.get(labels["variant"], labels["variant"])  # (a named one would set it again)
-    base = method_name({**labels, "variant": variant, "rollout": GROUPS["rollout"]})
-    return base if base in ORDER and base != method else None
+    coarse = (base, {**groups, "rollout": GROUPS["rollout"]})
+    return next((m for m in ORDER if m != method and _groups(m) == coarse), None)
 
 
 def finer_models(df: pd.DataFrame) -> str:
