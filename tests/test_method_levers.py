@@ -769,6 +769,59 @@ def test_carry_waits_until_the_object_has_been_carried_for_carry_hold(scene_for)
         planner.close()
 
 
+def test_switch_back_held_plans_on_the_scene_s_model_again_once_the_grasp_has_held(scene_for):
+    """planner.switch_back_held: a switched planner goes back to its own problem on the scene's planning
+    model at the plan at which the carry's hold is reached, once (a later break does not switch again); one
+    that has not switched by then never does. It needs a model to leave and the carry's signal."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=3.0, frames=31)
+    ref.object_qpos[1:, 2] += 0.1  # the reference's object 10 cm up from 0.1 s on
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 20)
+    assert problem.first_contact == 0.0
+    state = np.zeros(mujoco.mj_stateSize(scene.planner_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    track = problem.track
+
+    def at(s, lifted=True):
+        state[1 + scene.index.object_qpos] = track.object_qpos[track.index(s)]
+        if not lifted:
+            state[1 + scene.index.object_qpos[2]] -= 0.1
+        return state
+
+    def planner(switch_after):
+        p = PredictiveSampling(
+            num_samples=2, horizon=0.2, nthread=1, replan_period=0.1, carry_gain=1.0, carry_hold=0.5,
+            switch_timestep=0.005, switch_after=switch_after, switch_back_held=True,
+        )  # fmt: skip
+        p.bind(problem)
+        return p
+
+    def plan(p, s, lifted=True):
+        p.carry(s, s, at(s, lifted))
+        return p.phase(s)
+
+    early = planner(0.0)
+    assert plan(early, 0.1, lifted=False) and early.dt == 0.005  # switched from the first expected contact
+    assert not plan(early, 0.2) and not plan(early, 0.6) and early.dt == 0.005  # carried 0.4 s: not yet
+    assert plan(early, 0.7) and early.dt == 0.01  # 0.5 s: the grasp has held
+    assert early.problem is problem and early.switched_back_at == 0.7 and early.switched_at == 0.1
+    assert early.engine.model.opt.timestep == 0.01
+    assert not plan(early, 0.8, lifted=False) and not plan(early, 1.5) and early.dt == 0.01  # once
+    late = planner(1.0)
+    for s in (0.1, 0.2, 0.6, 0.7, 1.0, 1.5):
+        assert (
+            not plan(late, s, lifted=s > 0.1) and late.dt == 0.01
+        )  # held before its switch: it never switches
+    assert late.switched_at is None and late.switched_back_at is None
+    for p in (early, late):
+        p.close()
+    with pytest.raises(ConfigError, match="switch_back_held needs planner.switch_timestep"):
+        PredictiveSampling(switch_back_held=True, carry_gain=1.0)
+    with pytest.raises(ConfigError, match="switch_back_held needs planner.carry_gain"):
+        PredictiveSampling(switch_back_held=True, switch_timestep=0.005)
+
+
 def test_carry_leaves_an_object_without_a_free_body_alone(scene_for):
     """planner.carry_gain on the doorknob (no free body): no shift at any time, so carry=wrist|held|pose is
     the method itself there."""

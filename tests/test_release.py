@@ -165,7 +165,9 @@ def _trial_and_series(release: float, knocked: bool):
         spline=SimpleNamespace(num_control_points=10),
         replan_interval=DT,
         latency=0.0,
-        planner=SimpleNamespace(switch_timestep=None, switched_at=None, switch_back_after=None),
+        planner=SimpleNamespace(
+            switch_timestep=None, switched_at=None, switch_back_after=None, switch_back_held=False
+        ),
     )
     return series, trial
 
@@ -181,12 +183,16 @@ def test_summarize_records_the_end_of_the_trial():
     assert rec["object_position_error_span_mean"] == pytest.approx(0.0)
     assert rec["object_position_error_after_mean"] == pytest.approx(0.0)
     assert "switch_time" not in rec  # only with planner.switch_timestep
-    trial.planner = SimpleNamespace(switch_timestep=0.005, switched_at=None, switch_back_after=None)
+    trial.planner = SimpleNamespace(
+        switch_timestep=0.005, switched_at=None, switch_back_after=None, switch_back_held=False
+    )
     rec = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
     assert rec["switch_time"] is None and "switch_back_time" not in rec  # it never switched
     trial.planner.switched_at = 1.25
     assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_time"] == 1.25
     trial.planner.switch_back_after, trial.planner.switched_back_at = 0.0, 2.5  # and back
+    assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
+    trial.planner.switch_back_after, trial.planner.switch_back_held = None, True  # back on the grasp's hold
     assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
 
     knocked, trial = _trial_and_series(release=2.5, knocked=True)

@@ -198,7 +198,7 @@ def summarize(
     switch = {}
     if trial.planner.switch_timestep is not None:  # when its planning model switched (and back)
         switch["switch_time"] = trial.planner.switched_at
-        if trial.planner.switch_back_after is not None:
+        if trial.planner.switch_back_after is not None or trial.planner.switch_back_held:
             switch["switch_back_time"] = trial.planner.switched_back_at
     names = ("object_position_error", "object_rotation_error", "object_articulation_error")
     windows = errors_by_window(series["time"], {k: series[k] for k in names}, ttf.span)

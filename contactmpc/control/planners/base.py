@@ -187,6 +187,10 @@ class Planner:
         switch_back_after: seconds after the reference's last expected contact (where it lets go) at which
             a switched planner goes back to the scene's planning model (its own problem, as bound), once;
             ``None``: it keeps the switched model to the end.
+        switch_back_held: the switched model only until the grasp has held: the object carried
+            ``carry_hold`` seconds (the signal that starts the wrist's carry, ``carry_gain``, which it
+            needs). From that plan on a switched planner goes back to the scene's planning model, once, and
+            one that has not switched yet never does. False: not on the grasp.
     """
 
     needs_rollouts = True
@@ -228,6 +232,7 @@ class Planner:
         switch_error: Annotated[float, Gt(0)] | None = None,
         switch_count: Annotated[int, Ge(1)] = 2,
         switch_back_after: float | None = None,
+        switch_back_held: bool = False,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -285,8 +290,18 @@ class Planner:
         self.switch_error = None if switch_error is None else float(switch_error)
         self.switch_count = int(switch_count)
         self.switch_back_after = None if switch_back_after is None else float(switch_back_after)
-        if switch_back_after is not None and switch_timestep is None:
-            raise ConfigError("planner.switch_back_after needs planner.switch_timestep (the model it leaves)")
+        self.switch_back_held = bool(switch_back_held)
+        for name, on in (
+            ("switch_back_after", switch_back_after is not None),
+            ("switch_back_held", switch_back_held),
+        ):
+            if on and switch_timestep is None:
+                raise ConfigError(f"planner.{name} needs planner.switch_timestep (the model it leaves)")
+        if switch_back_held and not carry_gain:
+            raise ConfigError(
+                "planner.switch_back_held needs planner.carry_gain (carry=held: the grasp's hold)"
+            )
+        self._held = False  # (switch_back_held) the grasp has held: the carry's hold reached
         if switch_error is not None and (switch_timestep is None or not compensate_latency):
             raise ConfigError(
                 "planner.switch_error needs planner.switch_timestep (the model it switches to) and "
@@ -299,7 +314,7 @@ class Planner:
         self._switched: Problem | None = None  # the problem planned from then on
         self.switched_at: float | None = None  # reference time of the first plan on the switched model
         self.switched_back_at: float | None = None  # (switch_back_after) ... of the first plan back
-        # (switch_back_after) when to go back, and the problem to go back to
+        # (switch_back_after, switch_back_held) when to go back (inf: only on the hold), and the problem
         self._back: tuple[float, Problem] | None = None
 
     # --- the two methods a planner implements ------------------------------------------------
@@ -336,6 +351,7 @@ class Planner:
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
         self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
+        self._held = False
         self._path = None
         self.noise_std = problem.space.noise_std if problem.noise_std is None else problem.noise_std
         self._actuators = as_index(problem.scene.index.actuators)
@@ -361,6 +377,8 @@ class Planner:
             self._switched = problem.stepped(self.switch_timestep)
             if self.switch_back_after is not None and problem.last_contact is not None:
                 self._back = (problem.last_contact + self.switch_back_after, problem)
+            elif self.switch_back_held:
+                self._back = (np.inf, problem)
 
     def _attach(self, problem: Problem) -> None:
         """Plan ``problem`` from now on: its planning model's step and horizon steps, its track's grip
@@ -392,13 +410,17 @@ class Planner:
         ``switch_after``, or, with ``switch_error``, once the last ``switch_count`` ``prediction`` s, this
         plan's the last, each missed the object by more than it), plan the problem on the other planning
         model, with a new rollout engine; once (:attr:`switched_at` then says when). With
-        ``switch_back_after``, from then on the planner's own problem again, once (:attr:`switched_back_at`).
+        ``switch_back_after`` (or ``switch_back_held``, once the grasp has held), from then on the planner's
+        own problem again, once (:attr:`switched_back_at`).
 
         Returns:
             True where it switched (or went back) now.
         """
         if self._switched is None:
             return self._switch_back(s)
+        if self.switch_back_held and self._held:  # the grasp has held before the switch: none to make
+            self._switch_at, self._switched, self._back = None, None, None
+            return False
         due = s >= self._switch_at - 1e-9
         first = self.problem.first_contact
         if self.switch_error is not None and prediction is not None and s >= first - 1e-9:
@@ -413,9 +435,12 @@ class Planner:
         return True
 
     def _switch_back(self, s: float) -> bool:
-        """(``switch_back_after``) From its time on, once the planner has switched, plan its own problem on
-        the scene's planning model again, once; True where it went back now."""
-        if self._back is None or self.switched_at is None or s < self._back[0] - 1e-9:
+        """(``switch_back_after``, ``switch_back_held``) From its time on (or from the plan at which the grasp
+        has held), once the planner has switched, plan its own problem on the scene's planning model again,
+        once; True where it went back now."""
+        if self._back is None or self.switched_at is None:
+            return False
+        if s < self._back[0] - 1e-9 and not (self.switch_back_held and self._held):
             return False
         problem, self._back = self._back[1], None
         self.switched_back_at = float(s)
@@ -849,6 +874,7 @@ class Planner:
             self._carry_since = t
         if t - self._carry_since < self.carry_hold - 1e-9:
             return step
+        self._held = True
         step[:3] = self.carry_gain * dt * (expected[c : c + 3] - qo[c : c + 3])
         if self.carry_turn:
             step += self._turn(state, qo[c : c + 7], expected[c + 3 : c + 7], self.carry_turn * dt)
