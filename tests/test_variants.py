@@ -410,7 +410,8 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     rollout=fine_budget steps it at 5 ms within the paper point's rollout steps a plan;
     rollout=fine_after_grasp keeps 10 ms and switches to 5 ms 2 s after the first expected contact,
     rollout=fine_from_contact at it, within the paper point's rollout steps; rollout=fine_on_error once the
-    model has mispredicted the object, rollout=fine_grasp_on_error then back at the release."""
+    model has mispredicted the object, rollout=fine_grasp_on_error then back at the release,
+    rollout=fine_until_held back once the grasp has held."""
     base = compose(["task=apple"])
     assert compose(["task=apple", "rollout=paper"]) == base
     fine = compose(["task=apple", "rollout=fine"])
@@ -437,3 +438,6 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     assert on_error.switch_back_after is None and base.planner.switch_back_after is None
     grasp = compose(["task=apple", "rollout=fine_grasp_on_error"]).planner  # ... and back at the release
     assert {**grasp, "switch_back_after": None} == on_error and grasp.switch_back_after == 0.0
+    held = compose(["task=apple", "rollout=fine_until_held"]).planner  # ... and back on the grasp's hold
+    assert {**held, "switch_back_held": False} == on_error and held.switch_back_held
+    assert not base.planner.switch_back_held

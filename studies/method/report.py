@@ -37,6 +37,8 @@ EXPERIMENT = "method"
 EXPERIMENTS = [
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_on_error "
     "hydra.sweep.dir=studies/method/records  # = variant=grasp_held_eased_refined",
+    "python launch.py experiment=method variant=grasp_held_eased rollout=fine_until_held "
+    "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_grasp_on_error "
     "hydra.sweep.dir=studies/method/records",
     "python launch.py experiment=method variant=grasp_held_eased rollout=fine_from_contact "
@@ -63,6 +65,7 @@ CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
 ORDER = (
     "grasp_held_eased_refined",
+    "grasp_held_eased+rollout=fine_until_held",
     "grasp_held_eased+rollout=fine_grasp_on_error",
     "grasp_held_eased+rollout=fine_from_contact",
     "grasp_held_eased+rollout=fine_after_grasp",
