@@ -1237,6 +1237,59 @@ def release_section(study) -> str:
     )
 
 
+#: The bins of :func:`set_down`: the free object's orientation error (degrees) where the hand lets go, up
+#: to :data:`TOPPLE_FROM` (and from it on).
+SET_DOWN_BINS = (0.0, 15.0, 30.0)
+
+
+def set_down(study) -> str:
+    """Per free-object task, every completed trial the study keeps (the sweep's, held-out and lever
+    trials, every method) by its object's orientation error where the contact span ends
+    (:data:`SET_DOWN_BINS`): how many toppled after the hand let go (:func:`endings`) and how many
+    finished cleanly; whether the hand sets the object down upright decides whether it stays up."""
+    parts = [frame(study), frame(study, HELDOUT), frame(study, LEVERS)]
+    df = pd.concat([p for p in parts if len(p)], ignore_index=True) if any(len(p) for p in parts) else None
+    if df is None:
+        return ""
+    done = df[df["counted"] & df["completed"] & df["task"].isin(plan()[0]) & df["task"].ne("doorknob")]
+    rows, said = [], []
+    bins = (*SET_DOWN_BINS, TOPPLE_FROM)
+    edges = (*bins, math.inf)
+    for task in [t for t in plan()[0] if t in set(done["task"])]:
+        g = done[done["task"] == task].reset_index(drop=True)
+        deg = np.degrees(pd.to_numeric(g["object_rotation_error_span_final"], errors="coerce"))
+        toppled = set(endings(g.assign(seed=g.index), task).get("toppled", []))
+        cells = []
+        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+            inside = g.index[(deg >= lo) & (deg < hi)]
+            n, top = len(inside), sum(i in toppled for i in inside)
+            clean = int(g.loc[inside, "finished_cleanly"].sum())
+            top = "–" if lo >= TOPPLE_FROM else top  # (toppled counts only what was upright enough)
+            cells.append(f"{top} / {clean} of {n}" if n else "none")
+        rows.append(f"| {task} | {len(g)} | " + " | ".join(cells) + " |")
+        low = g.index[deg < SET_DOWN_BINS[1]]
+        high = g.index[(deg >= SET_DOWN_BINS[2]) & (deg < TOPPLE_FROM)]
+        if len(low) and len(high):
+            said.append(
+                f"{task}: {sum(i in toppled for i in high)} of {len(high)} set down "
+                f"{SET_DOWN_BINS[2]:.0f}-{TOPPLE_FROM:.0f}° off toppled, against "
+                f"{sum(i in toppled for i in low)} of {len(low)} set down under {SET_DOWN_BINS[1]:.0f}°"
+            )
+    if not rows:
+        return ""
+    heads = [f"{lo:.0f}-{hi:.0f}°" for lo, hi in zip(bins[:-1], bins[1:], strict=True)]
+    cols = ("task", "completed trials", *heads, f"{TOPPLE_FROM:.0f}° or more")
+    return (
+        "Every completed trial kept here (the sweep's, the held-out and the levers' trials, every method), "
+        "by how far the object's orientation was off the reference's where the contact span ends (where the "
+        "hand lets go); each cell: toppled after the hand let go / finished cleanly, of the trials in the "
+        f"bin (toppled: under {TOPPLE_FROM:.0f}° where the span ends, {TOPPLE_TO:.0f}° or more at the end). "
+        + ("; ".join(said) + "." if said else "")
+        + "\n\n"
+        + pipe_table(cols, "lr" + "r" * (len(cols) - 2), rows)
+    )
+
+
 ROUGH = "slide_friction"
 ROUGH_RUN = (
     "for s in $(seq 0 9); do python launch.py experiment=method task=paper_doorknob task.slide_friction=0.5 "
@@ -2349,6 +2402,8 @@ def report(study) -> str:
         + grasp_section(study)
         + "\n## Letting go\n\n"
         + release_section(study)
+        + "\n### Where the object is set down\n\n"
+        + set_down(study)
         + "\n## The doorknob on a slide with friction\n\n"
         + rough_slide(rough, df, study)
         + "\n## Online, in wall-clock time\n\n"
