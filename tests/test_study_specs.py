@@ -1038,35 +1038,41 @@ def test_the_method_study_says_when_each_trial_switched_its_planning_model() -> 
 
 def test_the_method_study_bins_the_set_down_by_the_object_s_orientation(monkeypatch) -> None:
     """set_down: per free-object task, the completed trials by the orientation error where the hand lets go,
-    each bin's toppled and finished-cleanly counts; the doorknob and trials not completed left out."""
+    each bin's toppled and finished-cleanly counts; the doorknob and trials not completed left out; a
+    method built on the default against it on the paired seeds (medians, the Wilcoxon signed-rank p)."""
     import math
 
     import pandas as pd
 
     spec = Study("method").spec
+    lever = f"{spec.METHOD}+place=wrist"
 
-    def trial(task, rot0, rot1, clean, completed=True):
-        return dict(task=task, seed=0, counted=True, completed=completed, finished_cleanly=clean,
-                    object_rotation_error_span_final=math.radians(rot0),
+    def trial(task, rot0, rot1, clean, completed=True, seed=0, variant=spec.METHOD):
+        return dict(task=task, seed=seed, variant=variant, counted=True, completed=completed,
+                    finished_cleanly=clean, object_rotation_error_span_final=math.radians(rot0),
                     object_position_error_span_final=0.01,
                     final_object_rotation_error=math.radians(rot1))  # fmt: skip
 
     rows = [
-        trial("bottle", 5, 5, True),
-        trial("bottle", 10, 90, False),  # toppled
-        trial("bottle", 35, 90, False),  # toppled
-        trial("bottle", 40, 40, False),
-        trial("bottle", 60, 60, False),
-        trial("bottle", 5, 90, False, completed=False),  # not completed: not counted here
+        trial("bottle", 5, 5, True, seed=9),
+        trial("bottle", 10, 90, False, seed=9),  # toppled
+        trial("bottle", 35, 90, False, seed=9),  # toppled
+        trial("bottle", 40, 40, False, seed=9),
+        trial("bottle", 60, 60, False, seed=9),
+        trial("bottle", 5, 90, False, completed=False, seed=9),  # not completed: not counted here
         trial("doorknob", 5, 5, True),
     ]
+    monkeypatch.setattr(spec, "plan", lambda: (["doorknob", "bottle"], list(range(10))))
     monkeypatch.setattr(
         spec, "frame", lambda study, folder=None: pd.DataFrame(rows if folder is None else [])
     )
-    monkeypatch.setattr(spec, "plan", lambda: (["doorknob", "bottle"], list(range(10))))
     text = spec.set_down(None)
     assert "| bottle | 5 | 1 / 1 of 2 | none | 1 / 0 of 2 | – / 0 of 1 |" in text
     assert "bottle: 1 of 2 set down 30-45° off toppled, against 1 of 2 set down under 15°" in text
-    assert "doorknob" not in text
+    assert "doorknob" not in text and "Wilcoxon" not in text  # no method on paired seeds
+    rows += [trial("bottle", 20 + s, 20 + s, True, seed=s) for s in range(5)]
+    rows += [trial("bottle", 10 + s, 10 + s, True, seed=s, variant=lever) for s in range(5)]
+    text = spec.set_down(None)
+    assert f"| `{lever}` | bottle | 0-4 | 12 / 22 | 5 of 5 | 0.0625 |" in text
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: pd.DataFrame([]))
     assert spec.set_down(None) == ""
