@@ -632,18 +632,25 @@ HELDOUT = "heldout"
 HELDOUT_SEEDS = "10-19"
 
 
-def heldout(study, chosen: pd.DataFrame) -> str:
-    """Each method's trials on the seeds it was not chosen on (:data:`HELDOUT`), per method (of
-    :data:`ORDER`) and task beside its trials on the seeds it was chosen on (``chosen``: the sweep's), with
-    the difference in completion and in finishing cleanly and Barnard's test; a line where :data:`METHOD`
-    has none yet."""
-    names = run_names()
+def heldout_frame(study, chosen: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """The held-out trials that count (:data:`HELDOUT`, on the planned tasks), with :data:`METHOD`'s
+    stand-ins (:func:`stand_ins`) among them; and apart: the method's own, and the stand-ins."""
     df = frame(study, HELDOUT)
     ok = df[df["counted"] & df["task"].isin(plan()[0])] if len(df) else df  # (not the sweep's seeds)
     own = ok[ok["variant"] == METHOD] if len(ok) else ok
     extra = stand_ins(study, chosen, own)
     if len(extra):
         ok = pd.concat([ok, extra[extra["task"].isin(plan()[0])]])
+    return ok, own, extra
+
+
+def heldout(study, chosen: pd.DataFrame) -> str:
+    """Each method's trials on the seeds it was not chosen on (:data:`HELDOUT`), per method (of
+    :data:`ORDER`) and task beside its trials on the seeds it was chosen on (``chosen``: the sweep's), with
+    the difference in completion and in finishing cleanly and Barnard's test; a line where :data:`METHOD`
+    has none yet."""
+    names = run_names()
+    ok, own, extra = heldout_frame(study, chosen)
     methods = [m for m in ORDER if len(ok) and (ok["variant"] == m).any()]
     runs = " and ".join(
         f'`VARIANTS="{names.get(m, m)}" SEEDS="$(seq -s " " 10 19)" OUT=studies/method/{HELDOUT} '
@@ -2132,10 +2139,13 @@ def latency_section(study, df: pd.DataFrame) -> str:
     if not records:
         return head + "No such trial is kept yet.\n"
     ok = counted(df)
+    held = heldout_frame(study, df)[0]
+    ok = pd.concat([x for x in (ok, held) if len(x)]) if len(ok) or len(held) else ok
     calibrated = 1e3 * (planned_latency() or math.nan)
 
     def at_calibrated(task: str, seeds: list, method: str) -> pd.DataFrame:
-        """``method``'s trials at the calibrated latency on ``task`` and ``seeds``."""
+        """``method``'s trials at the calibrated latency on ``task`` and ``seeds`` (the sweep's, or
+        held out: :func:`heldout_frame`)."""
         g = cell(ok, task, method) if len(ok) else ok
         return g[g["seed"].isin(seeds)] if len(g) else g
 

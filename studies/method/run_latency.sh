@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The method at a shorter latency than the calibrated one (the method study's "At a shorter latency"): the
-# default method (variant=grasp_release_ahead_acquire at preset=paper_32samples_calibrated) on TASKS and
+# task's default method at preset=paper_32samples_calibrated (VARIANT=<name>: that variant, in the runs'
+# names; the runs without one ran grasp_release_ahead_acquire, the default then) on TASKS and
 # SEEDS with each plan applied LATENCY s after its state (planner.latency) and plans still started every
 # 0.17 s (planner.replan_period; EVERY=0.06 starts them that often instead, the runs named _every06), as a
 # machine that plans faster than the calibrated latency would apply them. Simulated time: reproducible, and
@@ -15,12 +16,13 @@ KEEP=studies/method/latency
 LATENCY=${LATENCY:-0.06}
 for task in ${TASKS:-paper_stapler}; do
   for seed in ${SEEDS:-0 1 2 3}; do
-    name="${task}_latency${LATENCY#0.}${EVERY:+_every${EVERY#0.}}${TAG:+_$TAG}_seed${seed}"
+    name="${task}${VARIANT:+_$VARIANT}_latency${LATENCY#0.}${EVERY:+_every${EVERY#0.}}${TAG:+_$TAG}_seed${seed}"
     [[ -f "$KEEP/$name/trial.json" ]] && continue
     dir="outputs/method_latency/$name"
     # shellcheck disable=SC2086  (EXTRA is several overrides)
-    "$PY" launch.py task="$task" seed="$seed" planner.nthread=1 job.progress=false planner.latency="$LATENCY" \
-      planner.replan_period="${EVERY:-0.17}" ${EXTRA:-} hydra.run.dir="$dir" || echo "run failed: $name"
+    "$PY" launch.py task="$task" ${VARIANT:+variant=$VARIANT} seed="$seed" planner.nthread=1 \
+      job.progress=false planner.latency="$LATENCY" planner.replan_period="${EVERY:-0.17}" ${EXTRA:-} \
+      hydra.run.dir="$dir" || echo "run failed: $name"
     if [[ -f "$dir/trial.json" ]]; then mkdir -p "$KEEP/$name" && cp "$dir/trial.json" "$KEEP/$name/"; fi
   done
 done
