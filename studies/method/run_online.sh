@@ -12,6 +12,7 @@
 # to a plan every 0.170 s of control time at most (job.min_interval; three digits, ms), the runs named _paced170;
 # HELD=170 holds each plan to act no sooner than 0.170 s of control time after its state (job.apply_after), _held170.
 # SUFFIX=_again appends to the runs' names: a second set of runs beside the kept ones, not over them.
+# SEEDS="2 3 4" runs other seeds than 0 and 1 (with SLOWDOWNS=1: how often the method completes in real time).
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 : "${CONTACTMPC_PAPER_DATA:?set CONTACTMPC_PAPER_DATA to the mjpc/tasks directory of the paper authors}"
@@ -24,7 +25,7 @@ for method in ${VARIANTS:-grasp_held_eased}; do
   for task in ${TASKS:-paper_doorknob paper_apple paper_bottle paper_stapler}; do
     for slowdown in ${SLOWDOWNS:-1 2 3}; do
       every=1
-      for seed in 0 1; do
+      for seed in ${SEEDS:-0 1}; do
         name="${task}_${method//[+=]/_}${PACED:+_paced${PACED}}${HELD:+_held${HELD}}_slowdown${slowdown}_seed${seed}${SUFFIX:-}"
         dir="outputs/method_online/$name"
         # shellcheck disable=SC2086
