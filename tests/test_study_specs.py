@@ -144,8 +144,10 @@ def test_online_runs_name_the_slowdowns_each_method_was_tried_at() -> None:
 
 
 def test_the_method_studys_latency_section_sets_each_trial_beside_its_seed_at_the_calibrated_latency(
-    tmp_path,
+    tmp_path, monkeypatch
 ) -> None:
+    """latency_section: each run beside the same method's trial of its seed at the calibrated latency, the
+    sweep's or a held-out one (heldout_frame); a line per condition with Barnard's test."""
     import json
     from types import SimpleNamespace
 
@@ -161,14 +163,22 @@ def test_the_method_studys_latency_section_sets_each_trial_beside_its_seed_at_th
         (run / "trial.json").write_text(json.dumps(record))
     base = pd.DataFrame({"task": ["stapler"], "variant": [spec.METHOD], "seed": [0], "counted": [True],
                          "completed": [True], "finished_cleanly": [False]})  # fmt: skip
+    held = base.assign(seed=[12], finished_cleanly=[True])  # a held-out trial at the calibrated latency
+    monkeypatch.setattr(spec, "heldout_frame", lambda study, chosen: (held, held, held.iloc[:0]))
+    run = tmp_path / "latency" / "run12"
+    run.mkdir(parents=True)
+    record = {"task": "paper_stapler", "seed": 12, "latency": 0.06, "replan_interval": 0.17,
+              "completed": False, "finished_cleanly": False, "ttf": 0.2}  # fmt: skip
+    (run / "trial.json").write_text(json.dumps(record))
     text = spec.latency_section(SimpleNamespace(dir=tmp_path), base)
+    assert "| stapler | 12 | 60 | 170 | — | no / no | 0.20 | yes / yes |" in text
     assert "| stapler | 0 | 60 | 170 | — | no / no | 1.00 | yes / no |" in text
     assert "| stapler | 1 | 60 | 170 | — | yes / yes | 1.00 | — |" in text
     assert "| stapler | 0 | 60 | 170 | 3 | yes / yes | 1.00 | yes / no |" in text
     lever = "- stapler, 60 ms, a plan every 170 ms, the approach reset 3 s before the first contact "
     assert lever + "(`planner.approach_reset`): 1 of 1 completed, 1 cleanly; the same seeds at 170 ms" in text
-    summary = "- stapler, 60 ms, a plan every 170 ms: 1 of 2 completed, 1 cleanly; the same seeds at 170 ms: "
-    assert summary + "1 of 1 completed, 0 cleanly (completion, Barnard's exact test: p = 0.75)." in text
+    summary = "- stapler, 60 ms, a plan every 170 ms: 1 of 3 completed, 1 cleanly; the same seeds at 170 ms: "
+    assert summary + "2 of 2 completed, 1 cleanly (completion, Barnard's exact test: p = " in text
     assert "No such trial" in spec.latency_section(SimpleNamespace(dir=tmp_path / "none"), base)
 
 

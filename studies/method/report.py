@@ -1261,7 +1261,7 @@ def set_down(study) -> str:
     """Per free-object task, every completed trial the study keeps (the sweep's, held-out and lever
     trials, every method) by its object's orientation error where the contact span ends
     (:data:`SET_DOWN_BINS`): how many toppled after the hand let go (:func:`endings`) and how many
-    finished cleanly; whether the hand sets the object down upright decides whether it stays up."""
+    finished cleanly."""
     parts = [frame(study), frame(study, HELDOUT), frame(study, LEVERS)]
     df = pd.concat([p for p in parts if len(p)], ignore_index=True) if any(len(p) for p in parts) else None
     if df is None:
@@ -1300,6 +1300,7 @@ def set_down(study) -> str:
         "by how far the object's orientation was off the reference's where the contact span ends (where the "
         "hand lets go); each cell: toppled after the hand let go / finished cleanly, of the trials in the "
         f"bin (toppled: under {TOPPLE_FROM:.0f}° where the span ends, {TOPPLE_TO:.0f}° or more at the end). "
+        "The error is the whole rotation, the spin about the vertical included, which tips nothing over. "
         + ("; ".join(said) + "." if said else "")
         + "\n\n"
         + pipe_table(cols, "lr" + "r" * (len(cols) - 2), rows)
