@@ -1262,10 +1262,11 @@ def set_down(study) -> str:
     trials, every method) by its object's orientation error where the contact span ends
     (:data:`SET_DOWN_BINS`): how many toppled after the hand let go (:func:`endings`) and how many
     finished cleanly."""
-    parts = [frame(study), frame(study, HELDOUT), frame(study, LEVERS)]
-    df = pd.concat([p for p in parts if len(p)], ignore_index=True) if any(len(p) for p in parts) else None
-    if df is None:
+    sweep = frame(study)
+    parts = [p for p in (sweep, frame(study, HELDOUT), frame(study, LEVERS)) if len(p)]
+    if not parts:
         return ""
+    df = pd.concat(parts, ignore_index=True)
     done = df[df["counted"] & df["completed"] & df["task"].isin(plan()[0]) & df["task"].ne("doorknob")]
     rows, said = [], []
     bins = (*SET_DOWN_BINS, TOPPLE_FROM)
@@ -1293,7 +1294,7 @@ def set_down(study) -> str:
     if not rows:
         return ""
     heads = [f"{lo:.0f}-{hi:.0f}°" for lo, hi in zip(bins[:-1], bins[1:], strict=True)]
-    paired_rows = set_down_pairs(counted(parts[0]) if len(parts[0]) else parts[0])
+    paired_rows = set_down_pairs(counted(sweep))
     cols = ("task", "completed trials", *heads, f"{TOPPLE_FROM:.0f}° or more")
     return (
         "Every completed trial kept here (the sweep's, the held-out and the levers' trials, every method), "
