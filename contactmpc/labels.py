@@ -4,7 +4,7 @@ A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``
 ``robust``; or a named combination such as ``wrist_clearance``) with eleven independent groups on top:
 ``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance``), ``release``
 (``none | reset | open | scheduled | flat | backoff | eased``), ``compensation`` (``none | predict``),
-``effort`` (``uniform | acquire``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``),
+``effort`` (``uniform | acquire | acquire_half``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``),
 ``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze | carried | touched``), ``retarget``
 (``none | wrist``) and ``rollout`` (``paper | fine``).
 Records made before the groups existed name the combination by one variant label (``variant:
@@ -144,11 +144,17 @@ def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
     if variant in _LABELS:
         # an old variant's name, or a method's name that method_name gave: its groups, where the labels
         # leave them at their defaults (so reading a method's own name again gives the same method)
-        old = _LABELS[variant]
+        # A named method's records (today's variants, which select their groups) write each group's choice,
+        # so a group they set back to its default is read as set; an old variant's records wrote the
+        # defaults of groups that did not exist yet, so theirs are read as the variant's.
+        old, explicit = _LABELS[variant], variant in NAMED_METHODS
         given = {g: labels.get(g) for g in GROUPS}
         return {
             "variant": old["variant"],
-            **{g: given[g] if given[g] not in (None, d) else old.get(g, d) for g, d in GROUPS.items()},
+            **{
+                g: given[g] if given[g] is not None and (explicit or given[g] != d) else old.get(g, d)
+                for g, d in GROUPS.items()
+            },
         }
     return {"variant": variant, **{g: labels.get(g) or d for g, d in GROUPS.items()}}
 
@@ -181,6 +187,11 @@ def method_name(labels: Mapping[str, Any]) -> str | None:
         name = max(within)[1]
         rest = [(g, found[g]) for g, d in GROUPS.items() if g not in NAMED_METHODS[name] and found[g] != d]
         return name + "".join(f"+{g}={m}" for g, m in rest)
+    if (named := NAMED_METHODS.get(variant)) is not None:
+        # a named method with some of its own groups changed, even back to the default
+        # (grasp_held_eased+effort=uniform)
+        rest = [(g, found[g]) for g, d in GROUPS.items() if found[g] != named.get(g, d)]
+        return variant + "".join(f"+{g}={m}" for g, m in rest)
     return base + "".join(f"+{g}={m}" for g, m in zip(GROUPS, groups, strict=True) if m != GROUPS[g])
 
 

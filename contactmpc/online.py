@@ -385,6 +385,10 @@ class OnlineLoop:
           since its state).
         * ``stale_steps`` (``stale_fraction``): plant steps run on a plan older than ``stale_threshold``,
           the trial's ``replan_interval`` (the synchronous loop's plans never are).
+        * ``plan_seconds_grasp_median``: the median wall time of the plans planned from 1 s before to 2 s
+          after the reference's first expected contact (the grasp: where ``effort=acquire`` draws its
+          samples); ``plan_seconds_after_grasp_median``: of those planned from then on (``None`` without a
+          first expected contact, or without such plans).
         * ``plant_wait_seconds``: wall time the plant slept to keep its pace (its headroom);
           ``plant_behind_seconds``: wall time the schedule slipped because the plant fell more than
           ``max_lag`` behind (0: it kept up, ``kept_up``); ``plant_lag_max``: the most it was behind
@@ -405,6 +409,7 @@ class OnlineLoop:
         lat = _median_p95(latency)
         ages = _median_p95(age[version >= 0])
         seconds = [p.info.seconds for p in self.plans]
+        grasp, after = self._grasp_plans()
         sim = self.steps_run * dt
         stale = int(np.sum(age > trial.replan_interval + 1e-9))
         return {
@@ -432,6 +437,8 @@ class OnlineLoop:
             "stale_fraction": stale / self.steps_run if self.steps_run else None,
             "plan_seconds_mean": float(np.mean(seconds)) if seconds else None,
             "plan_seconds_p95": _median_p95(seconds)[1],
+            "plan_seconds_grasp_median": _median_p95(grasp)[0],
+            "plan_seconds_after_grasp_median": _median_p95(after)[0],
             "diverged_rollouts": int(sum(p.info.num_diverged for p in self.plans)),
             "planner_threads": self.planner_threads,
             "first_plan_wait": self.first_plan_wait,
@@ -442,6 +449,16 @@ class OnlineLoop:
             "viewer": self.viewer is not None,
             "drags": [] if self.viewer is None else list(self.viewer.drags),
         }
+
+    def _grasp_plans(self, before: float = 1.0, until: float = 2.0) -> tuple[list[float], list[float]]:
+        """The wall times of the plans planned from ``before`` s before to ``until`` s after the reference's
+        first expected contact, and of those planned from then on (both empty without one)."""
+        first = getattr(self.trial.planner.problem, "first_contact", None)
+        if first is None:
+            return [], []
+        times = [(p.state_time, p.info.seconds) for p in self.plans]
+        grasp = [s for t, s in times if first - before <= t < first + until]
+        return grasp, [s for t, s in times if t >= first + until]
 
     def plan_series(self) -> dict[str, np.ndarray]:
         """Per-plan arrays for ``timeseries.npz``: ``plans_state_time`` (the control time each plan was

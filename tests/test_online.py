@@ -79,6 +79,24 @@ def test_an_online_run_swaps_plans_in_and_writes_its_record(apple_reference, tmp
     assert np.all(np.diff(series["plan_version"]) >= 0)
     assert np.all(series["plan_age"] >= 0)
     assert len(series["plans_state_time"]) == record["num_plans"]
+    for key in ("plan_seconds_grasp_median", "plan_seconds_after_grasp_median"):
+        assert record[key] is None or record[key] > 0, key
+
+
+def test_the_grasp_plans_are_those_planned_from_1_s_before_to_2_s_after_the_first_contact():
+    """The record's grasp-window plan times split the plans by the control time they were planned from."""
+    from types import SimpleNamespace as NS
+
+    from contactmpc.online import OnlineLoop
+
+    loop = OnlineLoop.__new__(OnlineLoop)
+    times = [0.0, 0.4, 0.5, 2.0, 3.25, 3.5, 4.0]
+    loop.plans = [NS(state_time=t, info=NS(seconds=10 + t)) for t in times]
+    loop.trial = NS(planner=NS(problem=NS(first_contact=1.5)))
+    grasp, after = loop._grasp_plans()
+    assert grasp == [10.5, 12.0, 13.25] and after == [13.5, 14.0]
+    loop.trial.planner.problem.first_contact = None
+    assert loop._grasp_plans() == ([], [])
 
 
 class SlowReplay(Replay):

@@ -441,3 +441,22 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     held = compose(["task=apple", "rollout=fine_until_held"]).planner  # ... and back on the grasp's hold
     assert {**held, "switch_back_held": False} == on_error and held.switch_back_held
     assert not base.planner.switch_back_held
+
+
+def test_a_named_method_with_a_group_set_back_to_its_default_is_named_so():
+    """A record of a named variant writes each group's choice, so a group set back to its default on it
+    (variant=grasp_held_eased effort=uniform) is that, not the variant's own: the name says so and reads
+    back the same; an old variant's default-valued labels still read as the variant's."""
+    cfg = compose_config(
+        ["task=paper_stapler", "variant=grasp_held_eased", "effort=uniform"], return_hydra_config=True
+    )
+    found = {g: cfg.hydra.runtime.choices[g] for g in labels.GROUPS} | {"variant": "grasp_held_eased"}
+    assert found["effort"] == "uniform"
+    name = labels.method_name(found)
+    assert name == "grasp_held_eased+effort=uniform"
+    assert labels.method_labels({"variant": name}) == labels.method_labels(found)
+    assert labels.method_labels(found)["effort"] == "uniform"
+    assert labels.method_name({**found, "effort": "acquire"}) == "grasp_held_eased"
+    assert labels.method_name({**found, "effort": "acquire_half"}) == "grasp_held_eased+effort=acquire_half"
+    # an old variant's record wrote the defaults of groups that did not exist yet
+    assert labels.method_name({"variant": "wrist_clearance", "wrist": "fixed"}) == "wrist_clearance"

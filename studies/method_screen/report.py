@@ -18,7 +18,7 @@ from analysis.prose import median, of, ratio, seeds, span, unchallenged
 from analysis.study import REPO
 from analysis.summarize import Fmt, Stat, markdown, summarize
 from contactmpc.control.guidance import ObjectGuidance
-from contactmpc.labels import method_labels, method_name
+from contactmpc.labels import NAMED_METHODS, method_labels, method_name
 
 TITLE = "The cheap screen of the method levers (issue 33)"
 EXPERIMENTS = [
@@ -94,7 +94,11 @@ def _value(v: object, default: object) -> object:
 
 def _without_compensation(name: str) -> str:
     """A method's name (``full+wrist=acquire+shaping=clearance+compensation=predict``, or a variant's)
-    with its compensation group at the default (``wrist_clearance``)."""
+    with its compensation group at the default (``wrist_clearance``); a named method's name
+    (``grasp_release_ahead``, ``grasp_release_ahead_acquire+pacing=hold``) as it is, as the screen's labels
+    have always named its levers."""
+    if name.split("+")[0] in NAMED_METHODS:
+        return name
     return method_name({**method_labels({"variant": name}), "compensation": "none"})
 
 
