@@ -236,6 +236,48 @@ def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced(
     problem.engine.close()
 
 
+def test_acquire_horizon_shortens_the_grasps_plans_only_and_is_priced():
+    """planner.acquire_horizon: a plan in the acquire window rolls out and scores that much of the
+    reference (its steps, the control points its window meets), one after it the full horizon, the plan
+    without the option bit for bit; a latency model prices the dearer phase."""
+    problem = PointMassProblem(sigma=0.4)
+    short = PredictiveSampling(num_samples=8, horizon=0.5, acquire_until=0.2, acquire_horizon=0.2)
+    off = PredictiveSampling(num_samples=8, horizon=0.5, acquire_until=0.2)
+    for p in (short, off):
+        problem.bind(p)
+        p.problem.first_contact = 0.1
+    dt = problem.model.opt.timestep
+    steps, windows = [], []
+    real = short.evaluate
+
+    def evaluate(state, t, thetas):
+        steps.append(short.steps)
+        windows.append(len(short.problem.spline.window_indices(t, short._horizon_now)))
+        return real(state, t, thetas)
+
+    short.evaluate = evaluate
+    for t in (0.0, 0.29, 0.3):
+        short.plan(t, problem.state, np.random.default_rng(0))
+    full, cut = round(0.5 / dt), round(0.2 / dt)
+    assert steps == [cut, cut, full]
+    assert windows[0] < len(off.problem.spline.window_indices(0.0, 0.5))
+    assert [short.horizon_at(t) for t in (0.0, 0.3)] == [0.2, 0.5] and off.horizon_at(0.0) == 0.5
+    short.evaluate = real
+    assert_plans_alike(short, off, 0.5, problem.state)  # after the window: the plan without the option
+    model = ComputeLatency(sample_step_seconds=1e-4, threads=1)
+    dear = PredictiveSampling(
+        num_samples=8, horizon=0.5, acquire_samples=40, acquire_horizon=0.2, latency_model=model
+    )
+    cheap = PredictiveSampling(
+        num_samples=8, horizon=0.5, acquire_samples=12, acquire_horizon=0.2, latency_model=model
+    )
+    for p in (dear, cheap):
+        problem.bind(p)
+    assert dear.latency_for(dt) == model.seconds(40, cut, dt) > model.seconds(8, full, dt)
+    assert cheap.latency_for(dt) == model.seconds(8, full, dt) > model.seconds(12, cut, dt)
+    problem.engine.close()
+
+
 def test_step_budget_cuts_the_samples_to_the_rollout_steps_a_plan_may_run():
     """planner.step_budget: a plan draws at most ``step_budget // steps`` samples (in the acquire window as
     after it) and a latency model prices the cut plan; a budget the plan fits in changes nothing,

@@ -612,6 +612,7 @@ def _online_row(r: dict) -> str:
         f"| {r.get('task', '').removeprefix('paper_')} | {online_method(r)} | {r.get('seed')} "
         f"| {Fmt.num(slowdown, 0)} | {Fmt.num(factor, 3)} "
         f"| {_ms(r, 'replan_interval_median')} | {_ms(r, 'plan_latency_median')} "
+        f"| {_ms(r, 'plan_seconds_grasp_median')} | {_ms(r, 'plan_seconds_after_grasp_median')} "
         f"| {yes[bool(r.get('completed'))]} | {yes[bool(r.get('finished_cleanly'))]} "
         f"| {Fmt.num(r.get('ttf', math.nan), 2)} | {r.get('concurrent_trials') or '—'} | {_switch(r)} |"
     )
@@ -1526,17 +1527,21 @@ def online(study) -> str:
     rows = [_online_row(r) for r in records]
     cols = (
         "task", "method", "seed", "slowdown", "real-time factor", "replan interval, median (ms)",
-        "plan latency, median (ms)", "completed", "finished cleanly", "TTF", "trials at once",
-        "model switched (s)",
+        "plan latency, median (ms)", "grasp's plans, median (ms wall)", "later plans, median (ms wall)",
+        "completed", "finished cleanly", "TTF", "trials at once", "model switched (s)",
     )  # fmt: skip
     name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {online_method(r)}"  # noqa: E731
     table, prose, _ = by_slowdown(records, name)
     return (
         head
-        + pipe_table(cols, "lllrrrrllrrr", rows)
+        + pipe_table(cols, "lllrrrrrrllrrr", rows)
         + "\n*Trials at once*: the most trials running on the machine while the run ran, itself included "
         "(the record's `concurrent_trials`; — where the record predates it): a run beside others planned on "
-        "a busier machine, so its plans took longer than the same run's alone. *Model switched*: when the "
+        "a busier machine, so its plans took longer than the same run's alone. *Grasp's plans*: the median "
+        "wall time of the plans planned from 1 s before to 2 s after the reference's first expected contact, "
+        "where `effort=acquire` draws its 128 samples; *later plans*: of those planned after (the record's "
+        "`plan_seconds_grasp_median`, `plan_seconds_after_grasp_median`; — where the record predates "
+        "them). *Model switched*: when the "
         "planning model switched (`planner.switch_timestep`; the record's `switch_time`), in seconds after "
         "the first expected contact; — for a method without a switch.\n"
         + "\nHow many threads real time needs:\n\n"

@@ -121,7 +121,12 @@ class Planner:
             until ``acquire_until`` after the reference's first expected contact (where the stapler's
             grasp is won or lost: the paper point's 128 samples lift it, 32 rarely); ``None`` (the
             paper): ``num_samples`` throughout. A latency model prices the larger plan.
-        acquire_until: seconds after the first expected contact that ``acquire_samples`` lasts.
+        acquire_until: seconds after the first expected contact that ``acquire_samples`` (and
+            ``acquire_horizon``) lasts.
+        acquire_horizon: the horizon (s) of the plans in that window, the grasp's (not the paper's): a
+            plan there rolls out and scores this much of the reference, so its samples cost
+            ``acquire_horizon / horizon`` of a full plan's; ``None`` (the paper): ``horizon`` throughout. A
+            latency model prices the dearer of the two phases' plans.
         step_budget: the rollout steps one plan may run per iteration (samples x the horizon's
             planning-model steps): a plan draws at most ``step_budget // steps`` samples (at least 1),
             so a finer planning model draws fewer; ``None`` (the paper): no budget.
@@ -212,6 +217,7 @@ class Planner:
         compensate_latency: bool = False,
         acquire_samples: Annotated[int, Ge(1)] | None = None,
         acquire_until: float = 2.0,
+        acquire_horizon: Annotated[float, Gt(0)] | None = None,
         step_budget: Annotated[int, Ge(1)] | None = None,
         approach_reset: Annotated[float, Ge(0)] | None = None,
         guidance: ObjectGuidance | None = None,
@@ -279,6 +285,8 @@ class Planner:
         self.compensate_latency = bool(compensate_latency)
         self.acquire_samples = None if acquire_samples is None else int(acquire_samples)
         self.acquire_until = float(acquire_until)
+        self.acquire_horizon = None if acquire_horizon is None else float(acquire_horizon)
+        self._horizon_now = self.horizon  # the horizon of the plan being made (horizon_at)
         self.step_budget = None if step_budget is None else int(step_budget)
         self.approach_reset = None if approach_reset is None else float(approach_reset)
         self._plan_samples: int | None = None  # the samples of the plan being made (samples_at)
@@ -385,8 +393,9 @@ class Planner:
         tables, and the rollout engine (a new one where there is none), guided or robust models on it."""
         self.problem = problem
         self.dt = problem.scene.planner_model.opt.timestep
+        self._horizon_now = self.horizon
         self.steps = max(1, int(round(self.horizon / self.dt)))
-        self._basis_cache: dict[int, np.ndarray] = {}
+        self._basis_cache: dict[tuple[int, int], np.ndarray] = {}
         self._grip_data = self._carry_data = None  # scratch data of the planning model
         if self.grip is not None:
             track, hand = problem.track, problem.scene.hand
@@ -455,6 +464,12 @@ class Planner:
         if self.latency_model is None:
             return self.latency
         price = self.latency_model.seconds(self.rollouts_per_plan(), self.steps, plant_timestep)
+        if self.acquire_horizon is not None:  # the grasp's plans: their samples at their horizon
+            short = max(1, int(round(self.acquire_horizon / self.dt)))
+            price = max(
+                self.latency_model.seconds(self.rollouts_per_plan(acquire=False), self.steps, plant_timestep),
+                self.latency_model.seconds(self.rollouts_per_plan(short), short, plant_timestep),
+            )
         if self._switched is None:
             return price
         steps = max(1, int(round(self.horizon / self.switch_timestep)))
@@ -483,10 +498,10 @@ class Planner:
     def basis(self, t: float) -> np.ndarray:
         """(H, M) spline basis over the horizon starting at grid time ``t`` (cached per grid index), at
         :meth:`basis_times`."""
-        i = self.problem.track.index(t)
-        if i not in self._basis_cache:
-            self._basis_cache[i] = self.problem.spline.basis(self.basis_times(t))
-        return self._basis_cache[i]
+        key = (self.problem.track.index(t), self.steps)
+        if key not in self._basis_cache:
+            self._basis_cache[key] = self.problem.spline.basis(self.basis_times(t))
+        return self._basis_cache[key]
 
     def basis_times(self, t: float) -> np.ndarray:
         """(H,) the times of the horizon starting at grid time ``t``: its grid steps."""
@@ -664,7 +679,7 @@ class Planner:
             candidates: (S, Mw, d) their sampled values (:meth:`sample`);
             thetas: (S, M, d) full control-point sets: the nominal with the window replaced.
         """
-        window = self.problem.spline.window_indices(t, self.horizon)
+        window = self.problem.spline.window_indices(t, self._horizon_now)
         self._noise_scale = self.noise_scale(t, window, iteration)
         candidates = self.sample(rng, self.theta[window], window)
         thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
@@ -710,6 +725,7 @@ class Planner:
         if self.grip is not None and self.grip.during == "touched":
             self.touch(s, state)
         self.phase(s, prediction)
+        self._at_horizon(self.horizon_at(s))
         self._plan_samples = self.samples_at(s)
         try:
             info = self._plan(s, state, rng, start)
@@ -756,6 +772,21 @@ class Planner:
             return self._budgeted(self.num_samples)
         return self._budgeted(self.acquire_samples)
 
+    def horizon_at(self, t: float) -> float:
+        """The horizon (s) of a plan at reference time ``t``: ``acquire_horizon`` where
+        :meth:`samples_at` draws ``acquire_samples`` (until ``acquire_until`` after the first expected
+        contact), else ``horizon``."""
+        first = getattr(self.problem, "first_contact", None)
+        if self.acquire_horizon is None or first is None or t >= first + self.acquire_until - 1e-9:
+            return self.horizon
+        return self.acquire_horizon
+
+    def _at_horizon(self, horizon: float) -> None:
+        """Plan the next plan over ``horizon`` seconds: its planning steps (:attr:`steps`) on the bound
+        model's step."""
+        self._horizon_now = horizon
+        self.steps = max(1, int(round(horizon / self.dt)))
+
     def _budgeted(self, samples: int, steps: int | None = None) -> int:
         """``samples`` cut to what ``step_budget`` allows at ``steps`` planning steps a rollout (``None``:
         the bound horizon's)."""
@@ -765,7 +796,7 @@ class Planner:
 
     def _plan(self, t: float, state: np.ndarray, rng: np.random.Generator, start: float) -> PlanInfo:
         if not self.needs_rollouts:
-            window = self.problem.spline.window_indices(t, self.horizon)
+            window = self.problem.spline.window_indices(t, self._horizon_now)
             terms = {k: float("nan") for k in self.problem.cost.terms}
             return PlanInfo(time=t, window=window, terms=terms, seconds=time.perf_counter() - start)
         num_diverged, nominal_cost = 0, float("nan")
@@ -818,7 +849,7 @@ class Planner:
         space = self.problem.space
         ramp = None
         if getattr(space, "noise_ramp", 1.0) != 1.0:  # (a duck-typed space may have no ramp)
-            ramp = space.horizon_noise(self.problem.spline, window, t, self.horizon)
+            ramp = space.horizon_noise(self.problem.spline, window, t, self._horizon_now)
         if not iteration or self.anneal == 1.0:
             return ramp
         factor = self.anneal ** (iteration / self.iterations)
