@@ -1549,6 +1549,37 @@ def online(study) -> str:
         + "\n- "
         + ";\n- ".join(prose)
         + ".\n"
+        + grasp_plans(records)
+    )
+
+
+def grasp_plans(records: list[dict]) -> str:
+    """Per task and method, over its runs alone on the machine that record them: the median of the runs'
+    grasp-window plan wall times (``plan_seconds_grasp_median``) and of their later plans', per slowdown,
+    beside the runs completed; empty where no run records them."""
+    rows = {}
+    for r in records:
+        grasp, later = r.get("plan_seconds_grasp_median"), r.get("plan_seconds_after_grasp_median")
+        if grasp is None or later is None or int(r.get("concurrent_trials") or 1) > 1:
+            continue
+        key = (r.get("task", "").removeprefix("paper_"), online_method(r), r.get("slowdown"))
+        rows.setdefault(key, []).append((grasp, later, bool(r.get("completed"))))
+    if not rows:
+        return ""
+    lines = [
+        f"| {task} | `{method}` | {Fmt.num(slowdown, 0)} | {len(v)} | "
+        f"{1e3 * np.median([g for g, _, _ in v]):.0f} | {1e3 * np.median([x for _, x, _ in v]):.0f} | "
+        f"{of(sum(c for _, _, c in v), len(v))} |"
+        for (task, method, slowdown), v in sorted(rows.items(), key=lambda kv: (str(kv[0]), kv[0][2] or 0))
+    ]
+    return (
+        "\nWhat the grasp's plans cost online, per task, method and slowdown over the runs that record it, alone "
+        "on the machine: the median over runs of each run's median plan wall time from 1 s before to 2 s "
+        "after the first expected contact (where `effort=acquire` draws its 128 samples), and after that. "
+        "A plan's control-time latency is its wall time / the slowdown; the simulated trials charge every "
+        "plan the calibrated 170 ms.\n\n"
+        "| task | method | slowdown | runs | grasp's plans, median (ms wall) | later plans (ms wall) | "
+        "completed |\n|---|---|--:|--:|--:|--:|--:|\n" + "\n".join(lines) + "\n"
     )
 
 
