@@ -1573,8 +1573,8 @@ def grasp_plans(records: list[dict]) -> str:
         for (task, method, slowdown), v in sorted(rows.items(), key=lambda kv: (str(kv[0]), kv[0][2] or 0))
     ]
     return (
-        "\nWhat the grasp's plans cost online, per task, method and slowdown over the runs that record it, alone "
-        "on the machine: the median over runs of each run's median plan wall time from 1 s before to 2 s "
+        "\nWhat the grasp's plans cost online, per task, method and slowdown over the runs that record it, "
+        "alone on the machine: the median over runs of each run's median plan wall time from 1 s before to 2 s "
         "after the first expected contact (where `effort=acquire` draws its 128 samples), and after that. "
         "A plan's control-time latency is its wall time / the slowdown; the simulated trials charge every "
         "plan the calibrated 170 ms.\n\n"
