@@ -1576,8 +1576,8 @@ def grasp_plans(records: list[dict]) -> str:
         "\nWhat the grasp's plans cost online, per task, method and slowdown over the runs that record it, "
         "alone on the machine: the median over runs of each run's median plan wall time from 1 s before to "
         "2 s after the first expected contact (where `effort=acquire` draws its 128 samples), and after "
-        "that. A plan's control-time latency is its wall time / the slowdown; the simulated trials charge every "
-        "plan the calibrated 170 ms.\n\n"
+        "that. A plan's control-time latency is its wall time / the slowdown; the simulated trials charge "
+        "every plan the calibrated 170 ms.\n\n"
         "| task | method | slowdown | runs | grasp's plans, median (ms wall) | later plans (ms wall) | "
         "completed |\n|---|---|--:|--:|--:|--:|--:|\n" + "\n".join(lines) + "\n"
     )
