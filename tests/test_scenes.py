@@ -391,3 +391,26 @@ def test_planner_options_change_only_the_planning_model():
     for bad, words in (("{bogus: 1}", "'bogus' is not an mjOption field"), ("{cone: round}", "cone='round'")):
         with pytest.raises(SceneError, match=words):
             build_scene(("task=apple", f"+scene.planner_options={bad}"))
+
+
+def test_tilt_angle_leaves_out_the_turn_about_the_vertical():
+    """tilt_angle: a turn about the world's vertical tilts nothing; a tilt about a horizontal axis is its
+    angle, after a spin about the vertical too, and whichever way round the two are compared."""
+    from scipy.spatial.transform import Rotation
+
+    from contactmpc.tasks.layout import quat_angle, tilt_angle
+
+    def quat(r: Rotation) -> np.ndarray:
+        return r.as_quat(scalar_first=True)
+
+    upright = quat(Rotation.identity())
+    spun = quat(Rotation.from_euler("z", 40, degrees=True))
+    tilted = Rotation.from_euler("x", 25, degrees=True)
+    assert tilt_angle(upright, spun) == pytest.approx(0.0, abs=1e-9)
+    assert quat_angle(upright, spun) == pytest.approx(np.radians(40))
+    both = quat(Rotation.from_euler("z", 70, degrees=True) * tilted)
+    assert tilt_angle(both, upright) == pytest.approx(np.radians(25))
+    assert tilt_angle(upright, both) == pytest.approx(np.radians(25))
+    # a body lying on its side is 90 degrees off, vectorised over leading axes
+    side = quat(Rotation.from_euler("y", 90, degrees=True))
+    np.testing.assert_allclose(tilt_angle(np.stack([side, both]), upright), np.radians([90, 25]))

@@ -1086,3 +1086,44 @@ def test_the_method_study_bins_the_set_down_by_the_object_s_orientation(monkeypa
     assert f"| `{lever}` | bottle | 0-4 | 12 / 22 | 5 of 5 | 0.0625 |" in text
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: pd.DataFrame([]))
     assert spec.set_down(None) == ""
+
+
+def test_the_set_down_s_tilt_comes_from_the_time_series_and_leaves_out_the_spin(tmp_path) -> None:
+    """set_down_tilt: each completed trial's tilt where the hand lets go (the last sample of the contact
+    span) and at the end, from its timeseries.npz; a bottle spun 40° about the vertical is not tilted, one
+    set down tilted 25° that ends on its side lies over; a trial without a time series is left out."""
+    import json
+    import math
+
+    import numpy as np
+    import pandas as pd
+    from scipy.spatial.transform import Rotation
+
+    spec = Study("method").spec
+
+    def write(name, at, end):
+        run = tmp_path / name
+        run.mkdir()
+        quats = [Rotation.from_euler(*a, degrees=True).as_quat(scalar_first=True) for a in (at, at, end)]
+        qpos = np.concatenate([np.zeros((3, 3)), np.array(quats)], axis=1)
+        upright = np.tile([0, 0, 0, 1.0, 0, 0, 0], (3, 1))
+        np.savez(run / "timeseries.npz", time=np.array([1.0, 2.0, 3.0]), object_qpos=qpos,
+                 expected_object_qpos=upright)  # fmt: skip
+        (run / "trial.json").write_text(json.dumps({"contact_span_end": 2.0}))
+        return str(run / "trial.json")
+
+    spun = write("spun", ("z", 40), ("z", 40))
+    tipped = write("tipped", ("x", 25), ("x", 90))
+    assert spec.tilts(spun)[0] == pytest.approx(0.0, abs=1e-6)
+    assert spec.tilts(tipped) == pytest.approx((25.0, 90.0))
+    assert all(math.isnan(v) for v in spec.tilts(tmp_path / "none" / "trial.json"))
+    rows = [
+        dict(task="bottle", record_path=spun, finished_cleanly=True, object_rotation_error_span_final=0.7),
+        dict(task="bottle", record_path=tipped, finished_cleanly=False, object_rotation_error_span_final=0.6),
+        dict(task="bottle", record_path=str(tmp_path / "x" / "trial.json"), finished_cleanly=True,
+             object_rotation_error_span_final=0.1),
+    ]  # fmt: skip
+    text = spec.set_down_tilt(pd.DataFrame(rows))
+    assert "| bottle | 2 | 0 / 1 of 1 | none | none | 1 / 0 of 1 |" in text
+    assert "of the 2 set down 30-45° off in all, the median tilt was 12.5°" in text
+    assert spec.set_down_tilt(pd.DataFrame([dict(task="bottle")])) == ""

@@ -66,6 +66,29 @@ def quat_angle(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
     return 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
 
 
+def tilt_angle(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+    """The angle between the world's vertical as each orientation's body sees it: how far ``qa`` is tilted
+    from ``qb``, leaving out any turn about the vertical (a bottle spun about its upright axis is not
+    tilted, whichever of its axes is up).
+
+    Args:
+        qa: (..., 4) quaternions, w x y z.
+        qb: (..., 4) quaternions, w x y z.
+
+    Returns:
+        (...,) angle in [0, pi].
+    """
+
+    def up(q: np.ndarray) -> np.ndarray:  # R(q)^T z: the third row of the rotation matrix
+        q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+        w, x, y, z = np.moveaxis(q, -1, 0)
+        return np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)
+
+    a, b = up(np.asarray(qa, float)), up(np.asarray(qb, float))
+    cos = np.sum(a * b, axis=-1) / (np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1))
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
 class ObjectLayout:
     """The columns of ``q_o``, from its joints: free blocks (position 3 + quaternion 4) and
     articulations (one column per hinge or slide joint).

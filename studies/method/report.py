@@ -1306,6 +1306,7 @@ def set_down(study) -> str:
         + ("; ".join(said) + "." if said else "")
         + "\n\n"
         + pipe_table(cols, "lr" + "r" * (len(cols) - 2), rows)
+        + set_down_tilt(done)
         + (
             "\nEach method built on `" + METHOD + "` against it, on the sweep's seeds both completed: the "
             "object's orientation error where the hand lets go (median, degrees), and the Wilcoxon "
@@ -1319,6 +1320,80 @@ def set_down(study) -> str:
             if paired_rows
             else ""
         )
+    )
+
+
+#: Bins of the tilt where the hand lets go (degrees), and the tilt at the end from which an object lies over.
+TILT_BINS = (0.0, 5.0, 10.0, 20.0)
+LYING = 45.0
+#: Free objects with an upright to tip from (the apple, a sphere, has none).
+UPRIGHT_TASKS = ("bottle", "stapler")
+
+
+def tilts(record_path) -> tuple[float, float]:
+    """A trial's tilt off the reference's orientation (degrees, :func:`~contactmpc.tasks.layout.tilt_angle`:
+    the spin about the vertical left out) where the contact span ends and at the end, from its
+    ``timeseries.npz`` beside the record; NaN where it has none or its object is not one free body."""
+    from contactmpc.tasks.layout import tilt_angle
+
+    run = Path(record_path).parent
+    series = run / "timeseries.npz"
+    if not series.is_file():
+        return math.nan, math.nan
+    record = json.loads((run / "trial.json").read_text())
+    z = np.load(series)
+    if z["object_qpos"].shape[-1] != 7 or record.get("contact_span_end") is None:
+        return math.nan, math.nan
+    angle = np.degrees(tilt_angle(z["object_qpos"][:, 3:7], z["expected_object_qpos"][:, 3:7]))
+    inside = np.flatnonzero(z["time"] <= record["contact_span_end"] + 1e-9)
+    return (float(angle[inside[-1]]) if len(inside) else math.nan), float(angle[-1])
+
+
+def set_down_tilt(done: pd.DataFrame) -> str:
+    """The completed trials of :func:`set_down` that keep a time series, per task of
+    :data:`UPRIGHT_TASKS`, by the object's tilt where the hand lets go (:data:`TILT_BINS`): how many lie
+    over at the end (tilted :data:`LYING` or more) and how many finished cleanly; and how much of the
+    orientation error where the hand lets go is tilt."""
+    rows, said = [], []
+    edges = (*TILT_BINS, math.inf)
+    if "record_path" not in done:
+        return ""
+    for task in [t for t in UPRIGHT_TASKS if t in set(done["task"])]:
+        g = done[done["task"] == task]
+        found = [(*tilts(p), c, r) for p, c, r in zip(g["record_path"], g["finished_cleanly"],
+                                                    g["object_rotation_error_span_final"], strict=True)]  # fmt: skip
+        found = [f for f in found if not math.isnan(f[0])]
+        if not found:
+            continue
+        at, end, clean, whole = (np.array(x, float) for x in zip(*found, strict=True))
+        cells = []
+        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+            inside = (at >= lo) & (at < hi)
+            n = int(inside.sum())
+            lying, ok = int((end[inside] >= LYING).sum()), int(clean[inside].sum())
+            cells.append(f"{lying} / {ok} of {n}" if n else "none")
+        rows.append(f"| {task} | {len(found)} | " + " | ".join(cells) + " |")
+        off = np.degrees(pd.to_numeric(pd.Series(whole), errors="coerce")).to_numpy()
+        wide = (off >= SET_DOWN_BINS[2]) & (off < TOPPLE_FROM)
+        if wide.any():
+            said.append(
+                f"{task}: of the {int(wide.sum())} set down {SET_DOWN_BINS[2]:.0f}-{TOPPLE_FROM:.0f}° off in "
+                f"all, the median tilt was {np.median(at[wide]):.1f}° (the rest is spin about the vertical), "
+                f"and {int((end[wide] >= LYING).sum())} lay over at the end"
+            )
+    if not rows:
+        return ""
+    heads = [f"tilt {lo:.0f}-{hi:.0f}°" for lo, hi in zip(TILT_BINS[:-1], TILT_BINS[1:], strict=True)]
+    cols = ("task", "trials with a time series", *heads, f"tilt {TILT_BINS[-1]:.0f}° or more")
+    return (
+        "\nThe same trials where their time series are kept (`timeseries.npz` beside the record), by the "
+        "object's tilt where the hand lets go: the angle between the vertical as the object sees it and as "
+        "the reference's does, which leaves out the spin about the vertical (`contactmpc.tasks.layout."
+        f"tilt_angle`). Each cell: lying over at the end (tilted {LYING:.0f}° or more) / finished cleanly, "
+        "of the trials in the bin. "
+        + ("; ".join(said) + "." if said else "")
+        + "\n\n"
+        + pipe_table(cols, "lr" + "r" * (len(cols) - 2), rows)
     )
 
 
