@@ -1360,8 +1360,8 @@ def set_down_tilt(done: pd.DataFrame) -> str:
         return ""
     for task in [t for t in UPRIGHT_TASKS if t in set(done["task"])]:
         g = done[done["task"] == task]
-        found = [(*tilts(p), c, r) for p, c, r in zip(g["record_path"], g["finished_cleanly"],
-                                                    g["object_rotation_error_span_final"], strict=True)]  # fmt: skip
+        columns = (g["record_path"], g["finished_cleanly"], g["object_rotation_error_span_final"])
+        found = [(*tilts(p), c, r) for p, c, r in zip(*columns, strict=True)]
         found = [f for f in found if not math.isnan(f[0])]
         if not found:
             continue
