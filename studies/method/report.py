@@ -2243,10 +2243,13 @@ def latency_section(study, df: pd.DataFrame) -> str:
     ran = list(dict.fromkeys(method_name(r) or METHOD for r in records)) or [METHOD]
     head = (
         f"{codes(ran)}'s trials at the calibrated latency beside the same seeds with each plan applied "
-        "sooner (`planner.latency`), plans still started every 170 ms (`planner.replan_period=0.17`) or as "
-        "often as the latency allows (`EVERY=`), as a faster machine would apply them; "
-        "`bash studies/method/run_latency.sh`. An online run on a machine that "
-        "plans faster than the calibrated latency is such a trial, in wall-clock time. *Approach reset*: "
+        "sooner or later (`planner.latency`), plans still started every 170 ms (`planner.replan_period=0.17`) "
+        "or as often as the latency allows (`EVERY=`; a latency over 170 ms starts them that often), as a "
+        "faster or a slower machine would apply them; `bash studies/method/run_latency.sh`. An online run "
+        "on a machine that plans faster than the calibrated latency is such a trial, in wall-clock time; "
+        "the grasp's plans of `effort=acquire` take longer than the calibrated latency on the paper's 7 "
+        "threads of this CPU (*What a plan costs with each planning model*), which a trial at a longer "
+        "latency charges every plan. *Approach reset*: "
         "the lever `planner.approach_reset` on top of the method (`EXTRA=`): that many seconds before the "
         "first expected contact the committed control points go back to the reference's own, so the hand "
         "meets the object as a screen trial starts it.\n\n"
@@ -2582,7 +2585,7 @@ def report(study) -> str:
         + rough_slide(rough, df, study)
         + "\n## Online, in wall-clock time\n\n"
         + online(study)
-        + "\n## At a shorter latency\n\n"
+        + "\n## At another latency\n\n"
         + latency_section(study, df)
         + "\n## Per seed\n\n"
         + (

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# The method at a shorter latency than the calibrated one (the method study's "At a shorter latency"): the
+# The method at another latency than the calibrated one (the method study's "At another latency"): the
 # task's default method at preset=paper_32samples_calibrated (VARIANT=<name>: that variant, in the runs'
 # names; the runs without one ran grasp_release_ahead_acquire, the default then) on TASKS and
 # SEEDS with each plan applied LATENCY s after its state (planner.latency) and plans still started every
-# 0.17 s (planner.replan_period; EVERY=0.06 starts them that often instead, the runs named _every06), as a
-# machine that plans faster than the calibrated latency would apply them. Simulated time: reproducible, and
-# the cores may be shared. Resumable (a kept record is skipped). EXTRA: more overrides (a lever on top of the
-# method), named by TAG in the run's name (TAG=approach3 EXTRA="planner.approach_reset=3.0").
+# 0.17 s (planner.replan_period; EVERY=0.06 starts them that often instead, the runs named _every06; a
+# LATENCY over 0.17 starts them that often), as a machine that plans faster (or slower) than the calibrated
+# latency would apply them. Simulated time: reproducible, and the cores may be shared. Resumable (a kept
+# record is skipped). EXTRA: more overrides (a lever on top of the method), named by TAG in the run's name
+# (TAG=approach3 EXTRA="planner.approach_reset=3.0").
 #   TASKS=paper_stapler SEEDS="0 1 2 3" LATENCY=0.06 nohup nice -n 15 bash studies/method/run_latency.sh &
 set -u
 cd "$(dirname "$0")/../.."
