@@ -2244,8 +2244,8 @@ def latency_section(study, df: pd.DataFrame) -> str:
     head = (
         f"{codes(ran)}'s trials at the calibrated latency beside the same seeds with each plan applied "
         "sooner or later (`planner.latency`), plans still started every 170 ms "
-        "(`planner.replan_period=0.17`) or as often as the latency allows (`EVERY=`; a latency over 170 ms starts them that often), as a "
-        "faster or a slower machine would apply them; `bash studies/method/run_latency.sh`. An online run "
+        "(`planner.replan_period=0.17`) or as often as the latency allows (`EVERY=`; a latency over 170 "
+        "ms starts them that often), as a faster or a slower machine would apply them; `bash studies/method/run_latency.sh`. An online run "
         "on a machine that plans faster than the calibrated latency is such a trial, in wall-clock time; "
         "the grasp's plans of `effort=acquire` take longer than the calibrated latency on the paper's 7 "
         "threads of this CPU (*What a plan costs with each planning model*), which a trial at a longer "
