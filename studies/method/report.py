@@ -1258,6 +1258,22 @@ def release_section(study) -> str:
 SET_DOWN_BINS = (0.0, 15.0, 30.0)
 
 
+def binned_table(lead: str, said: list[str], cols: tuple[str, ...], rows: list[str]) -> str:
+    """A binned table's text: ``lead``, the clauses ``said``, then the table (a label and a count, then
+    the bins)."""
+    return (
+        lead
+        + ("; ".join(said) + "." if said else "")
+        + "\n\n"
+        + pipe_table(cols, "lr" + "r" * (len(cols) - 2), rows)
+    )
+
+
+def bin_heads(edges: tuple[float, ...], prefix: str = "") -> list[str]:
+    """The column heads of bins between consecutive ``edges`` (degrees): ``"<prefix>0-15°"``."""
+    return [f"{prefix}{lo:.0f}-{hi:.0f}°" for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
+
+
 def set_down(study) -> str:
     """Per free-object task, every completed trial the study keeps (the sweep's, held-out and lever
     trials, every method) by its object's orientation error where the contact span ends
@@ -1294,19 +1310,20 @@ def set_down(study) -> str:
             )
     if not rows:
         return ""
-    heads = [f"{lo:.0f}-{hi:.0f}°" for lo, hi in zip(bins[:-1], bins[1:], strict=True)]
+    heads = bin_heads(bins)
     paired_rows = set_down_pairs(counted(sweep))
     cols = ("task", "completed trials", *heads, f"{TOPPLE_FROM:.0f}° or more")
-    return (
+    return binned_table(
         "Every completed trial kept here (the sweep's, the held-out and the levers' trials, every method), "
         "by how far the object's orientation was off the reference's where the contact span ends (where the "
         "hand lets go); each cell: toppled after the hand let go / finished cleanly, of the trials in the "
         f"bin (toppled: under {TOPPLE_FROM:.0f}° where the span ends, {TOPPLE_TO:.0f}° or more at the end). "
-        "The error is the whole rotation, the spin about the vertical included, which tips nothing over. "
-        + ("; ".join(said) + "." if said else "")
-        + "\n\n"
-        + pipe_table(cols, "lr" + "r" * (len(cols) - 2), rows)
-        + set_down_tilt(done)
+        "The error is the whole rotation, the spin about the vertical included, which tips nothing over. ",
+        said,
+        cols,
+        rows,
+    ) + (
+        set_down_tilt(done)
         + (
             "\nEach method built on `" + METHOD + "` against it, on the sweep's seeds both completed: the "
             "object's orientation error where the hand lets go (median, degrees), and the Wilcoxon "
@@ -1383,17 +1400,17 @@ def set_down_tilt(done: pd.DataFrame) -> str:
             )
     if not rows:
         return ""
-    heads = [f"tilt {lo:.0f}-{hi:.0f}°" for lo, hi in zip(TILT_BINS[:-1], TILT_BINS[1:], strict=True)]
+    heads = bin_heads(TILT_BINS, "tilt ")
     cols = ("task", "trials with a time series", *heads, f"tilt {TILT_BINS[-1]:.0f}° or more")
-    return (
+    return binned_table(
         "\nThe same trials where their time series are kept (`timeseries.npz` beside the record), by the "
         "object's tilt where the hand lets go: the angle between the vertical as the object sees it and as "
         "the reference's does, which leaves out the spin about the vertical (`contactmpc.tasks.layout."
         f"tilt_angle`). Each cell: lying over at the end (tilted {LYING:.0f}° or more) / finished cleanly, "
-        "of the trials in the bin. "
-        + ("; ".join(said) + "." if said else "")
-        + "\n\n"
-        + pipe_table(cols, "lr" + "r" * (len(cols) - 2), rows)
+        "of the trials in the bin. ",
+        said,
+        cols,
+        rows,
     )
 
 
