@@ -1127,3 +1127,33 @@ def test_the_set_down_s_tilt_comes_from_the_time_series_and_leaves_out_the_spin(
     assert "| bottle | 2 | 0 / 1 of 1 | none | none | 1 / 0 of 1 |" in text
     assert "of the 2 set down 30-45° off in all, the median tilt was 12.5°" in text
     assert spec.set_down_tilt(pd.DataFrame([dict(task="bottle")])) == ""
+
+
+def test_the_latency_s_demand_on_the_machine_is_read_from_the_records_and_the_benchmark(
+    tmp_path, monkeypatch
+) -> None:
+    """threads_needed: the method's completions at each longer latency on the sweep's seeds (and at the
+    calibrated one, from the study's records) beside the grasp plan's CPU time over that latency; nothing
+    without the plan benchmark, or for seeds off the sweep's."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    spec = Study("method").spec
+    monkeypatch.setattr(spec, "plan", lambda: (["stapler"], [0, 1]))
+    study = SimpleNamespace(dir=tmp_path)
+    m = spec.METHOD
+    records = [
+        dict(task="paper_stapler", variant=m, seed=s, latency=0.3, completed=s == 0) for s in (0, 1, 12)
+    ]
+    ok = pd.DataFrame([dict(task="stapler", variant=m, seed=s, completed=True) for s in (0, 1)])
+    assert spec.threads_needed(study, records, ok, 170.0) == ""  # no benchmark
+    (tmp_path / "figures").mkdir()
+    rows = [dict(task="paper_stapler", rollout="paper", state="approach", plan_cpu_seconds=1.5),
+            dict(task="paper_stapler", rollout="paper", state="contact", plan_cpu_seconds=0.5)]  # fmt: skip
+    pd.DataFrame(rows).to_csv(tmp_path / "figures" / spec.PLAN_COSTS, index=False)
+    text = spec.threads_needed(study, records, ok, 170.0)
+    assert "2 of 2 completed at 170 ms (its grasp plans need 8.8 threads)" in text
+    assert "1 of 2 completed at 300 ms (its grasp plans need 5.0 threads)" in text
+    assert "1.50 CPU-s" in text
+    assert spec.threads_needed(study, records[2:], ok, 170.0) == ""  # a held-out seed only

@@ -2347,7 +2347,59 @@ def latency_section(study, df: pd.DataFrame) -> str:
             )
             + "."
         )
-    return head + pipe_table(cols, "lrrrrlrl", rows) + "\n" + "\n".join(lines) + "\n" + held_online(study)
+    needs = threads_needed(study, records, ok, calibrated)
+    return (
+        head
+        + pipe_table(cols, "lrrrrlrl", rows)
+        + "\n"
+        + "\n".join(lines)
+        + "\n"
+        + (f"\n{needs}\n\n" if needs else "")
+        + held_online(study)
+    )
+
+
+def threads_needed(study, records: list[dict], ok: pd.DataFrame, calibrated_ms: float) -> str:
+    """Per task, :data:`METHOD`'s completions at each latency it ran on the sweep's seeds (plans every
+    latency, or every 170 ms below it; the calibrated latency's from the study's records), beside the
+    threads of this CPU its grasp plans (``effort=acquire``'s, the plan benchmark's *approach* row at
+    ``rollout=paper``, one thread) need to take effect within that latency; empty without the
+    benchmark."""
+    path = None if study is None else study.dir / "figures" / PLAN_COSTS
+    if path is None or not path.is_file():
+        return ""
+    costs = pd.read_csv(path)
+    costs = costs[(costs["rollout"] == "paper") & (costs["state"] == "approach")].set_index("task")
+    sweep = set(plan()[1])
+    out = []
+    for task in sorted({r.get("task") for r in records if method_name(r) == METHOD}):
+        name = str(task).removeprefix("paper_")
+        if task not in costs.index:
+            continue
+        cpu = float(costs.loc[task, "plan_cpu_seconds"])
+        mine = [r for r in records if r.get("task") == task and method_name(r) == METHOD]
+        mine = [r for r in mine if r.get("seed") in sweep and (r.get("latency") or 0) * 1e3 > calibrated_ms]
+        base = cell(ok, name, METHOD) if len(ok) else ok
+        base = base[base["seed"].isin(sweep)] if len(base) else base
+        if not mine or not len(base):
+            continue
+        at = {calibrated_ms: (int(base["completed"].sum()), len(base))}
+        for latency in sorted({1e3 * r["latency"] for r in mine}):
+            group = [r for r in mine if abs(1e3 * r["latency"] - latency) < 1e-6]
+            at[latency] = (sum(bool(r.get("completed")) for r in group), len(group))
+        parts = [
+            f"{of(k, n)} completed at {ms:.0f} ms (its grasp plans need {1e3 * cpu / ms:.1f} threads)"
+            for ms, (k, n) in sorted(at.items())
+        ]
+        out.append(
+            f"- {name}: `{METHOD}` on the sweep's seeds: " + "; ".join(parts) + f". A grasp plan costs "
+            f"{cpu:.2f} CPU-s on one thread of this CPU (*What a plan costs with each planning model*); "
+            "the threads are that CPU time over the latency, a lower bound (perfect scaling, nothing else "
+            "running)."
+        )
+    if not out:
+        return ""
+    return "What the method's latency asks of the machine:\n\n" + "\n".join(out)
 
 
 def held_online(study) -> str:
