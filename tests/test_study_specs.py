@@ -1117,6 +1117,9 @@ def test_the_set_down_s_tilt_comes_from_the_time_series_and_leaves_out_the_spin(
     assert spec.tilts(spun)[0] == pytest.approx(0.0, abs=1e-6)
     assert spec.tilts(tipped) == pytest.approx((25.0, 90.0))
     assert all(math.isnan(v) for v in spec.tilts(tmp_path / "none" / "trial.json"))
+    (tmp_path / "records").mkdir()
+    swept = Path(write("records/tipped", ("x", 25), ("x", 90)))  # a sweep's: its series does not travel
+    assert all(math.isnan(v) for v in spec.tilts(swept))
     rows = [
         dict(task="bottle", record_path=spun, finished_cleanly=True, object_rotation_error_span_final=0.7),
         dict(task="bottle", record_path=tipped, finished_cleanly=False, object_rotation_error_span_final=0.6),

@@ -1350,12 +1350,14 @@ UPRIGHT_TASKS = ("bottle", "stapler")
 def tilts(record_path) -> tuple[float, float]:
     """A trial's tilt off the reference's orientation (degrees, :func:`~contactmpc.tasks.layout.tilt_angle`:
     the spin about the vertical left out) where the contact span ends and at the end, from its
-    ``timeseries.npz`` beside the record; NaN where it has none or its object is not one free body."""
+    ``timeseries.npz`` beside the record; NaN where it has none that the study keeps (a sweep's
+    ``records/`` keep only ``trial.json``) or its object is not one free body."""
     from contactmpc.tasks.layout import tilt_angle
 
     run = Path(record_path).parent
     series = run / "timeseries.npz"
-    if not series.is_file():
+    # a sweep's records/ keep only trial.json (.gitignore): a time series there is this machine's alone
+    if not series.is_file() or run.parent.name == "records":
         return math.nan, math.nan
     record = json.loads((run / "trial.json").read_text())
     z = np.load(series)
@@ -1403,8 +1405,9 @@ def set_down_tilt(done: pd.DataFrame) -> str:
     heads = bin_heads(TILT_BINS, "tilt ")
     cols = ("task", "trials with a time series", *heads, f"tilt {TILT_BINS[-1]:.0f}° or more")
     return binned_table(
-        "\nThe same trials where their time series are kept (`timeseries.npz` beside the record), by the "
-        "object's tilt where the hand lets go: the angle between the vertical as the object sees it and as "
+        "\nThe same trials where their time series are kept (`timeseries.npz` beside the record: the "
+        "held-out and the levers' trials), by the object's tilt where the hand lets go: the angle between "
+        "the vertical as the object sees it and as "
         "the reference's does, which leaves out the spin about the vertical (`contactmpc.tasks.layout."
         f"tilt_angle`). Each cell: lying over at the end (tilted {LYING:.0f}° or more) / finished cleanly, "
         "of the trials in the bin. ",
