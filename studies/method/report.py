@@ -2351,15 +2351,8 @@ def latency_section(study, df: pd.DataFrame) -> str:
             + "."
         )
     needs = threads_needed(study, records, ok, calibrated)
-    return (
-        head
-        + pipe_table(cols, "lrrrrlrl", rows)
-        + "\n"
-        + "\n".join(lines)
-        + "\n"
-        + (f"\n{needs}\n\n" if needs else "")
-        + held_online(study)
-    )
+    table = head + pipe_table(cols, "lrrrrlrl", rows) + "\n" + "\n".join(lines) + "\n"
+    return table + (f"\n{needs}\n\n" if needs else "") + held_online(study)
 
 
 def threads_needed(study, records: list[dict], ok: pd.DataFrame, calibrated_ms: float) -> str:
