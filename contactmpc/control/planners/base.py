@@ -393,8 +393,7 @@ class Planner:
         tables, and the rollout engine (a new one where there is none), guided or robust models on it."""
         self.problem = problem
         self.dt = problem.scene.planner_model.opt.timestep
-        self._horizon_now = self.horizon
-        self.steps = max(1, int(round(self.horizon / self.dt)))
+        self._at_horizon(self.horizon)
         self._basis_cache: dict[tuple[int, int], np.ndarray] = {}
         self._grip_data = self._carry_data = None  # scratch data of the planning model
         if self.grip is not None:
@@ -767,19 +766,21 @@ class Planner:
     def samples_at(self, t: float) -> int:
         """The samples a plan at control time ``t`` draws: ``acquire_samples`` until ``acquire_until``
         after the first expected contact, else ``num_samples``; either cut to ``step_budget``."""
+        acquiring = self.acquire_samples is not None and self.acquiring(t)
+        return self._budgeted(self.acquire_samples if acquiring else self.num_samples)
+
+    def acquiring(self, t: float) -> bool:
+        """Whether reference time ``t`` is in the acquire window: before ``acquire_until`` after the first
+        expected contact (never without one)."""
         first = getattr(self.problem, "first_contact", None)
-        if self.acquire_samples is None or first is None or t >= first + self.acquire_until - 1e-9:
-            return self._budgeted(self.num_samples)
-        return self._budgeted(self.acquire_samples)
+        return first is not None and t < first + self.acquire_until - 1e-9
 
     def horizon_at(self, t: float) -> float:
         """The horizon (s) of a plan at reference time ``t``: ``acquire_horizon`` where
         :meth:`samples_at` draws ``acquire_samples`` (until ``acquire_until`` after the first expected
         contact), else ``horizon``."""
-        first = getattr(self.problem, "first_contact", None)
-        if self.acquire_horizon is None or first is None or t >= first + self.acquire_until - 1e-9:
-            return self.horizon
-        return self.acquire_horizon
+        acquiring = self.acquire_horizon is not None and self.acquiring(t)
+        return self.acquire_horizon if acquiring else self.horizon
 
     def _at_horizon(self, horizon: float) -> None:
         """Plan the next plan over ``horizon`` seconds: its planning steps (:attr:`steps`) on the bound
