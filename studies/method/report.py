@@ -1669,10 +1669,14 @@ def grasp_plans(records: list[dict]) -> str:
     ]
     return (
         "\nWhat the grasp's plans cost online, per task, method and slowdown over the runs that record it, "
-        "alone on the machine: the median over runs of each run's median plan wall time from 1 s before to "
-        "2 s after the first expected contact (where `effort=acquire` draws its 128 samples), and after "
-        "that. A plan's control-time latency is its wall time / the slowdown; the simulated trials charge "
-        "every plan the calibrated 170 ms.\n\n"
+        "alone on the machine: the median over runs of each run's median plan wall time, of the plans "
+        "planned from a state 1 s before to 2 s after the first expected contact (where `effort=acquire` "
+        "draws its 128 samples), and after that. The window is the state's time: with "
+        "`compensation=predict` a plan starts from the state predicted as far ahead as the last plans "
+        "took, so a slow plan late in the window plans past the acquire window, with the later plans' "
+        "samples, and the window's median mixes both kinds (lower, the slower the plans). A plan's "
+        "control-time latency is its wall time / the slowdown; the simulated trials charge every plan the "
+        "calibrated 170 ms.\n\n"
         "| task | method | slowdown | runs | grasp's plans, median (ms wall) | later plans (ms wall) | "
         "completed |\n|---|---|--:|--:|--:|--:|--:|\n" + "\n".join(lines) + "\n"
     )
