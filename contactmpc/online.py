@@ -385,8 +385,8 @@ class OnlineLoop:
           since its state).
         * ``stale_steps`` (``stale_fraction``): plant steps run on a plan older than ``stale_threshold``,
           the trial's ``replan_interval`` (the synchronous loop's plans never are).
-        * ``plan_seconds_grasp_median``: the median wall time of the plans planned from 1 s before to 2 s
-          after the reference's first expected contact (the grasp: where ``effort=acquire`` draws its
+        * ``plan_seconds_grasp_median``: the median wall time of the plans planned from a state 1 s before
+          to 2 s after the reference's first expected contact (the grasp: where ``effort=acquire`` draws its
           samples); ``plan_seconds_after_grasp_median``: of those planned from then on (``None`` without a
           first expected contact, or without such plans).
         * ``plant_wait_seconds``: wall time the plant slept to keep its pace (its headroom);
