@@ -143,10 +143,10 @@ def method_labels(labels: Mapping[str, Any]) -> dict[str, str | None]:
         return method_labels({**labels, "variant": base, **{g: m for g, m in added.items() if g in GROUPS}})
     if variant in _LABELS:
         # an old variant's name, or a method's name that method_name gave: its groups, where the labels
-        # leave them at their defaults (so reading a method's own name again gives the same method)
-        # A named method's records (today's variants, which select their groups) write each group's choice,
-        # so a group they set back to its default is read as set; an old variant's records wrote the
-        # defaults of groups that did not exist yet, so theirs are read as the variant's.
+        # leave them unset (so reading a method's own name again gives the same method); an old variant's
+        # records also wrote the defaults of groups that did not exist yet, read as the variant's, while a
+        # named method's records (today's variants select their groups) write each group's choice, so a
+        # group set back to its default there is read as set
         old, explicit = _LABELS[variant], variant in NAMED_METHODS
         given = {g: labels.get(g) for g in GROUPS}
         return {

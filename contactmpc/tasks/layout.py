@@ -79,13 +79,12 @@ def tilt_angle(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
         (...,) angle in [0, pi].
     """
 
-    def up(q: np.ndarray) -> np.ndarray:  # R(q)^T z: the third row of the rotation matrix
+    def up(q: np.ndarray) -> np.ndarray:  # R(q)^T z, a unit vector: the third row of the rotation matrix
         q = q / np.linalg.norm(q, axis=-1, keepdims=True)
         w, x, y, z = np.moveaxis(q, -1, 0)
         return np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)
 
-    a, b = up(np.asarray(qa, float)), up(np.asarray(qb, float))
-    cos = np.sum(a * b, axis=-1) / (np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1))
+    cos = np.sum(up(np.asarray(qa, float)) * up(np.asarray(qb, float)), axis=-1)
     return np.arccos(np.clip(cos, -1.0, 1.0))
 
 
