@@ -1092,7 +1092,6 @@ def test_the_set_down_s_tilt_comes_from_the_time_series_and_leaves_out_the_spin(
     """set_down_tilt: each completed trial's tilt where the hand lets go (the last sample of the contact
     span) and at the end, from its timeseries.npz; a bottle spun 40° about the vertical is not tilted, one
     set down tilted 25° that ends on its side lies over; a trial without a time series is left out."""
-    import json
     import math
 
     import numpy as np
@@ -1109,22 +1108,23 @@ def test_the_set_down_s_tilt_comes_from_the_time_series_and_leaves_out_the_spin(
         upright = np.tile([0, 0, 0, 1.0, 0, 0, 0], (3, 1))
         np.savez(run / "timeseries.npz", time=np.array([1.0, 2.0, 3.0]), object_qpos=qpos,
                  expected_object_qpos=upright)  # fmt: skip
-        (run / "trial.json").write_text(json.dumps({"contact_span_end": 2.0}))
         return str(run / "trial.json")
 
     spun = write("spun", ("z", 40), ("z", 40))
     tipped = write("tipped", ("x", 25), ("x", 90))
-    assert spec.tilts(spun)[0] == pytest.approx(0.0, abs=1e-6)
-    assert spec.tilts(tipped) == pytest.approx((25.0, 90.0))
-    assert all(math.isnan(v) for v in spec.tilts(tmp_path / "none" / "trial.json"))
+    assert spec.tilts(spun, 2.0)[0] == pytest.approx(0.0, abs=1e-6)
+    assert spec.tilts(tipped, 2.0) == pytest.approx((25.0, 90.0))
+    assert all(math.isnan(v) for v in spec.tilts(tmp_path / "none" / "trial.json", 2.0))
     (tmp_path / "records").mkdir()
     swept = Path(write("records/tipped", ("x", 25), ("x", 90)))  # a sweep's: its series does not travel
-    assert all(math.isnan(v) for v in spec.tilts(swept))
+    assert all(math.isnan(v) for v in spec.tilts(swept, 2.0))
     rows = [
-        dict(task="bottle", record_path=spun, finished_cleanly=True, object_rotation_error_span_final=0.7),
-        dict(task="bottle", record_path=tipped, finished_cleanly=False, object_rotation_error_span_final=0.6),
-        dict(task="bottle", record_path=str(tmp_path / "x" / "trial.json"), finished_cleanly=True,
-             object_rotation_error_span_final=0.1),
+        dict(task="bottle", record_path=spun, contact_span_end=2.0, finished_cleanly=True,
+             object_rotation_error_span_final=0.7),
+        dict(task="bottle", record_path=tipped, contact_span_end=2.0, finished_cleanly=False,
+             object_rotation_error_span_final=0.6),
+        dict(task="bottle", record_path=str(tmp_path / "x" / "trial.json"), contact_span_end=2.0,
+             finished_cleanly=True, object_rotation_error_span_final=0.1),
     ]  # fmt: skip
     text = spec.set_down_tilt(pd.DataFrame(rows))
     assert "| bottle | 2 | 0 / 1 of 1 | none | none | 1 / 0 of 1 |" in text

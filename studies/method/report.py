@@ -1347,24 +1347,23 @@ LYING = 45.0
 UPRIGHT_TASKS = ("bottle", "stapler")
 
 
-def tilts(record_path) -> tuple[float, float]:
+def tilts(record_path, span_end: float | None) -> tuple[float, float]:
     """A trial's tilt off the reference's orientation (degrees, :func:`~contactmpc.tasks.layout.tilt_angle`:
-    the spin about the vertical left out) where the contact span ends and at the end, from its
-    ``timeseries.npz`` beside the record; NaN where it has none that the study keeps (a sweep's
-    ``records/`` keep only ``trial.json``) or its object is not one free body."""
+    the spin about the vertical left out) where its contact span ends (``span_end``, the record's) and at
+    the end, from its ``timeseries.npz`` beside the record; NaN where it has none that the study keeps (a
+    sweep's ``records/`` keep only ``trial.json``), no span, or an object that is not one free body."""
     from contactmpc.tasks.layout import tilt_angle
 
     run = Path(record_path).parent
     series = run / "timeseries.npz"
     # a sweep's records/ keep only trial.json (.gitignore): a time series there is this machine's alone
-    if not series.is_file() or run.parent.name == "records":
+    if not series.is_file() or run.parent.name == "records" or span_end is None or pd.isna(span_end):
         return math.nan, math.nan
-    record = json.loads((run / "trial.json").read_text())
     z = np.load(series)
-    if z["object_qpos"].shape[-1] != 7 or record.get("contact_span_end") is None:
+    if z["object_qpos"].shape[-1] != 7:
         return math.nan, math.nan
     angle = np.degrees(tilt_angle(z["object_qpos"][:, 3:7], z["expected_object_qpos"][:, 3:7]))
-    inside = np.flatnonzero(z["time"] <= record["contact_span_end"] + 1e-9)
+    inside = np.flatnonzero(z["time"] <= span_end + 1e-9)
     return (float(angle[inside[-1]]) if len(inside) else math.nan), float(angle[-1])
 
 
@@ -1379,8 +1378,9 @@ def set_down_tilt(done: pd.DataFrame) -> str:
         return ""
     for task in [t for t in UPRIGHT_TASKS if t in set(done["task"])]:
         g = done[done["task"] == task]
-        columns = (g["record_path"], g["finished_cleanly"], g["object_rotation_error_span_final"])
-        found = [(*tilts(p), c, r) for p, c, r in zip(*columns, strict=True)]
+        span_end = g["contact_span_end"] if "contact_span_end" in g else pd.Series(None, index=g.index)
+        columns = (g["record_path"], span_end, g["finished_cleanly"], g["object_rotation_error_span_final"])
+        found = [(*tilts(p, e), c, r) for p, e, c, r in zip(*columns, strict=True)]
         found = [f for f in found if not math.isnan(f[0])]
         if not found:
             continue
