@@ -10,7 +10,10 @@ the previous plan. Plans start every ``max(replan_period, L)``: with L the longe
 starts from the state at t + L, when the last one takes effect (continuous replanning). L = 0 is the
 synchronous loop, bit for bit. With ``planner.compensate_latency`` (``compensation=predict``) the plan
 computed at t starts from the state predicted at t + L instead (:meth:`Planner.predict
-<contactmpc.control.planners.base.Planner.predict>`), its window starting there.
+<contactmpc.control.planners.base.Planner.predict>`), its window starting there. With
+``planner.latency_per_plan`` each plan is charged its own L (:meth:`Planner.latency_at
+<contactmpc.control.planners.base.Planner.latency_at>`: the grasp's dearer plans longer than the later
+ones), and the next plan starts ``max(replan_period, L)`` after it (:meth:`Trial.schedule`).
 """
 
 from __future__ import annotations
@@ -172,8 +175,6 @@ class Trial:
         plant = self.start_plant()
         rng = np.random.default_rng(self.seed)
         dt = plant.timestep
-        per_plan = int(round(self.replan_interval / dt))
-        lag = int(round(self.latency / dt))  # plant steps on the previous plan after each replan
         n_steps = int(round(self.duration / dt))
         state = np.empty(plant.state_size())
         first = int(round(self.start_time / dt))  # the first step: the loop's clock starts there
@@ -181,7 +182,6 @@ class Trial:
         pending = sorted(float(v) for v in snapshots)
         self.snapshots: dict[float, np.ndarray] = {}
         log = TrialLog()
-        offsets = np.arange(per_plan) * dt
         bar = tqdm(
             total=n_steps - first,
             desc=f"{scene.task.name}",
@@ -190,8 +190,10 @@ class Trial:
             leave=False,
         )
         try:
-            for k in range(first, n_steps, per_plan):
+            # lag: plant steps on the previous plan after each replan
+            for k, lag, per_plan in self.schedule():
                 t = k * dt
+                offsets = np.arange(per_plan) * dt
                 plant.state(t, out=state)  # rollouts run on the control clock
                 while pending and t >= pending[0] - 1e-9:
                     self.snapshots[pending.pop(0)] = state.copy()
@@ -220,13 +222,33 @@ class Trial:
             bar.close()
         return log
 
-    def expected_log(self) -> tuple[np.ndarray, np.ndarray]:
-        """The instants the whole trial logs (one per replan) and the links expected in contact there:
-        ``(time (N,), expected_contacts (N, L))``, as :meth:`run`'s log has them (a paced reference's as if
-        it never waited: how long it will wait is known only as the trial runs)."""
+    def schedule(self) -> list[tuple[int, int, int]]:
+        """The trial's replans, ``(plant step it starts at, its latency, plant steps until the next)``
+        each: every ``replan_interval`` at :attr:`latency`, or with ``planner.latency_per_plan`` each
+        plan at its own latency (:meth:`Planner.latency_at
+        <contactmpc.control.planners.base.Planner.latency_at>`), the next ``max(replan_period, latency)``
+        later. A function of the config alone (the plan's control time), so known before the trial runs."""
         dt = self.scene.plant_model.opt.timestep
-        per_plan = int(round(self.replan_interval / dt))
-        time = np.arange(int(round(self.start_time / dt)), int(round(self.duration / dt)), per_plan) * dt
+        first, n_steps = int(round(self.start_time / dt)), int(round(self.duration / dt))
+        planner = self.planner
+        if not planner.latency_per_plan:
+            per_plan = int(round(self.replan_interval / dt))
+            lag = int(round(self.latency / dt))
+            return [(k, lag, per_plan) for k in range(first, n_steps, per_plan)]
+        replan = int(round(planner.replan_period / dt))
+        plans, k = [], first
+        while k < n_steps:
+            lag = int(round(planner.latency_at(k * dt, dt) / dt))
+            plans.append((k, lag, max(replan, lag)))
+            k += max(replan, lag)
+        return plans
+
+    def expected_log(self) -> tuple[np.ndarray, np.ndarray]:
+        """The instants the whole trial logs (one per replan, :meth:`schedule`) and the links expected in
+        contact there: ``(time (N,), expected_contacts (N, L))``, as :meth:`run`'s log has them (a paced
+        reference's as if it never waited: how long it will wait is known only as the trial runs)."""
+        dt = self.scene.plant_model.opt.timestep
+        time = np.array([k for k, _, _ in self.schedule()], float) * dt
         return time, self.track.contact_active[[self.track.index(t) for t in time]]
 
     # --- the plant, shared with the wall-clock loop (contactmpc.online) -------------------------

@@ -251,3 +251,103 @@ def test_a_prediction_shorter_than_a_planning_step_or_diverged_is_the_state_meas
     problem.bind(replay)
     replay.engine = None
     assert replay.predict(0.0, problem.state, 5 * dt) == (0.0, problem.state)
+
+
+PRICED = ComputeLatency(sample_step_seconds=1e-4, threads=1)  # 20 samples x 20 steps: 40 ms; 8: 16 ms
+
+
+def test_per_plan_latency_charges_each_plan_its_own_price(monkeypatch, scene_for):
+    """planner.latency_per_plan: the grasp's 20-sample plans (until ``acquire_until`` after the first
+    expected contact, here 0.1 s) land 40 ms after their state, the later 8-sample ones 16 ms; each next plan
+    starts when the last takes effect; every plant step runs on the last plan in effect; the record's
+    expected log (the trial's schedule) is the log's instants."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.3, frames=11)  # contact expected from 0 s
+    trial, planner = _trial(scene, ref, duration=0.2, latency_model=PRICED, latency_per_plan=True,
+                            acquire_samples=20, acquire_until=0.1)  # fmt: skip
+    assert planner.problem.first_contact == 0.0
+    assert trial.latency == pytest.approx(0.04)  # the dearest plan's, as the record states
+    starts = [0.0, 0.04, 0.08, 0.12, 0.136, 0.152, 0.168, 0.184]
+    schedule = trial.schedule()
+    np.testing.assert_allclose([k * 1e-3 for k, _, _ in schedule], starts)
+    assert [lag for _, lag, _ in schedule] == [40, 40, 40] + [16] * 5
+    steps, plans, log = _recorded(monkeypatch, trial, planner)
+    np.testing.assert_allclose(log["time"], starts)
+    np.testing.assert_array_equal(trial.expected_log()[0], log["time"])
+    effect = [k * 1e-3 + lag * 1e-3 for k, lag, _ in schedule]  # where each plan takes effect
+    space, spline = planner.problem.space, planner.problem.spline
+    for t, ctrl in steps:
+        k = sum(e <= t + 1e-9 for e in effect) - 1  # the last plan in effect at t
+        theta = planner.problem.theta0 if k < 0 else plans[k][1]
+        expected = space.controls(theta, spline.basis(np.array([t])))[0]
+        np.testing.assert_allclose(ctrl, expected, rtol=0, atol=1e-12, err_msg=f"t={t:.3f}")
+
+
+def test_per_plan_latency_of_plans_that_all_cost_the_same_is_the_fixed_loop_bit_for_bit(scene_for):
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=0.3, frames=11)
+    _same_log(scene, ref, {"latency_model": PRICED}, {"latency_model": PRICED, "latency_per_plan": True})
+
+
+def test_per_plan_latency_prices_the_phase_of_the_plans_state():
+    """Each plan's price is its phase's, from the time of its state; the one compensated plan whose state
+    is in the acquire window but which acts after it (and draws the later samples) is charged the grasp's.
+    Off: every plan the dearest phase's price."""
+    from tests.helpers import PointMassProblem
+
+    problem = PointMassProblem()
+    args = {"num_samples": 8, "horizon": 0.2, "acquire_samples": 20, "acquire_until": 0.1,
+            "latency_model": PRICED, "compensate_latency": True}  # fmt: skip
+    on, off = PredictiveSampling(latency_per_plan=True, **args), PredictiveSampling(**args)
+    for planner in (on, off):
+        problem.bind(planner)
+        planner.problem.first_contact = 0.0
+    dt = problem.model.opt.timestep
+    dear, cheap = PRICED.seconds(20, 20, dt), PRICED.seconds(8, 20, dt)
+    assert dear > cheap
+    assert [on.latency_at(t, dt) for t in (0.0, 0.09, 0.1)] == [dear, dear, cheap]
+    assert on.samples_at(0.09) == 20 and on.samples_at(0.09 + dear) == 8  # the plan across: charged dear
+    assert [off.latency_at(t, dt) for t in (0.0, 0.1)] == [dear, dear] == [off.latency_for(dt)] * 2
+    problem.engine.close()
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        ({}, "not with a fixed latency is every plan's"),
+        ({"latency_model": PRICED, "switch_timestep": 0.005}, "not with a state-dependent switch"),
+        ({"latency_model": PRICED, "pace_lag": 0.03}, "not with a paced reference"),
+    ],
+)
+def test_per_plan_latency_needs_a_model_and_a_schedule_known_from_time(args, named):
+    with pytest.raises(ConfigError, match=named):
+        PredictiveSampling(latency_per_plan=True, **args)
+
+
+def test_loop_per_plan_prices_at_the_calibrated_sample_step_and_fixed_changes_nothing():
+    """loop=per_plan: the latency model at preset=paper_calibrated's per sample-step cost (the figure the
+    plan_cost study checks), the paper's 7 threads, each plan its own price; on the paper tasks' method
+    a grasp plan lands 170 ms (the calibrated preset's latency) after its state, a later one 43 ms.
+    loop=fixed (the default) composes the config without it."""
+    from tests.conftest import compose_config
+
+    per_plan = compose_config(["task=apple", "preset=paper_32samples_calibrated", "loop=per_plan"])
+    calibrated = compose_config(["preset=paper_calibrated"])
+    model = per_plan.planner.latency_model
+    assert model.sample_step_seconds == calibrated.planner.latency_model.sample_step_seconds
+    assert model.threads == 7 and per_plan.planner.latency == 0 and per_plan.planner.latency_per_plan
+    fixed = compose_config(["preset=paper_32samples_calibrated"])
+    priced = ComputeLatency(model.sample_step_seconds, model.threads)
+    assert priced.seconds(128, 250, 0.001) == pytest.approx(fixed.planner.latency)
+    assert priced.seconds(32, 250, 0.001) == pytest.approx(0.043)
+    assert compose_config(["loop=fixed"]) == compose_config([])
+
+
+@pytest.mark.slow
+def test_a_per_plan_trial_records_its_plans_latencies(tmp_path):
+    run = tmp_path / "run"
+    r = launch_py("loop=per_plan", "planner.acquire_samples=64", "duration=0.3", f"hydra.run.dir={run}", *QUIET)
+    assert r.returncode == 0, r.stderr
+    record = json.loads((run / "trial.json").read_text())
+    assert record["latency"] == max(float(k) for k in record["plan_latencies"])
+    assert sum(record["plan_latencies"].values()) == record["num_plans"]

@@ -200,6 +200,11 @@ def summarize(
         switch["switch_time"] = trial.planner.switched_at
         if trial.planner.switch_back_after is not None or trial.planner.switch_back_held:
             switch["switch_back_time"] = trial.planner.switched_back_at
+    per_plan = {}
+    if trial.planner.latency_per_plan:  # each plan its own latency: which ones, and how many of each
+        lags, counts = np.unique([lag for _, lag, _ in trial.schedule()], return_counts=True)
+        dt = trial.scene.plant_model.opt.timestep
+        per_plan["plan_latencies"] = {f"{lag * dt:.3f}": int(n) for lag, n in zip(lags, counts, strict=True)}
     names = ("object_position_error", "object_rotation_error", "object_articulation_error")
     windows = errors_by_window(series["time"], {k: series[k] for k in names}, ttf.span)
     return {
@@ -234,4 +239,5 @@ def summarize(
         "latency": trial.latency,
         "diverged_rollouts": int(np.sum(series["num_diverged"])),
         **switch,
+        **per_plan,
     }

@@ -100,6 +100,11 @@ class Planner:
             loop). A whole number of plant steps.
         latency_model: model the latency from the planner's size instead
             (:class:`~contactmpc.control.latency.ComputeLatency`); ``latency`` must then be 0.
+        latency_per_plan: charge each plan its own price (:meth:`latency_at`: the model's price of the
+            samples and horizon of that plan's phase) instead of every plan the dearest phase's
+            (:meth:`latency_for`), so a trial's grasp plans take longer than its later ones, as on a
+            machine of the model's threads (MuJoCo MPC's loop, deterministically). Needs
+            ``latency_model``; False (the default): every plan the same latency.
         nthread: rollout threads; ``None`` = the CPUs this process may use (its affinity mask and
             cgroup quota, :func:`~contactmpc.control.rollout.available_cpus`), so a Slurm job with
             8 CPUs on a 64-core node starts 8.
@@ -211,6 +216,7 @@ class Planner:
         robust: ModelEnsemble | None = None,
         latency: Annotated[float, Ge(0)] = 0.0,
         latency_model: ComputeLatency | None = None,
+        latency_per_plan: bool = False,
         iterations: Annotated[int, Ge(1)] = 1,
         anneal: Annotated[float, Gt(0)] = 1.0,
         early_stop: Annotated[float, Ge(0)] = 0.0,
@@ -245,6 +251,18 @@ class Planner:
                 f"{type(self).__name__}: latency = {latency:g} s and a latency_model are both set: "
                 "choose one (planner.latency=0 or planner.latency_model=null)"
             )
+        if latency_per_plan:
+            why = (
+                "a fixed latency is every plan's (set planner.latency_model)"
+                if latency_model is None
+                else "a state-dependent switch of planning model (planner.switch_timestep)"
+                if switch_timestep is not None
+                else "a paced reference (planner.pace_lag), which can plan another phase's samples"
+                if pace_lag is not None
+                else None
+            )
+            if why:
+                raise ConfigError(f"planner.latency_per_plan prices each plan by its time: not with {why}")
         if pace_rate >= 1.0:
             raise ConfigError(
                 f"planner.pace_rate = {pace_rate:g}: a waiting reference's clock must run slower than 1"
@@ -272,6 +290,7 @@ class Planner:
         self._clock = (0.0, 0.0, 1.0, np.inf)
         self.latency = float(latency)
         self.latency_model = latency_model
+        self.latency_per_plan = bool(latency_per_plan)
         self.num_samples = int(num_samples)
         self.robust = robust
         self._models: list | None = None
@@ -476,6 +495,29 @@ class Planner:
         acquiring = self.acquire_samples is not None and early
         switched = self.rollouts_per_plan(steps, acquiring)
         return max(price, self.latency_model.seconds(switched, steps, plant_timestep))
+
+    def latency_at(self, t: float, plant_timestep: float) -> float:
+        """The latency (s) of the plan started from the state at control time ``t``: with
+        ``latency_per_plan``, the model's price of the samples and horizon that plan draws
+        (:meth:`samples_at`, :meth:`horizon_at`) at ``t``; else :meth:`latency_for`, every plan's. With
+        ``compensate_latency`` a plan draws the samples of where it takes effect: the one plan whose state
+        is in the acquire window but which acts after it is charged the grasp's price (the dearer; the
+        window only ends). Needs :meth:`bind`."""
+        if not self.latency_per_plan:
+            return self.latency_for(plant_timestep)
+        return self.latency_model.seconds(*self.rollouts_at(t), plant_timestep)
+
+    def rollouts_at(self, t: float) -> tuple[int, int]:
+        """``(rollouts, steps)`` of the plan at reference time ``t``: its iterations x (samples
+        (:meth:`samples_at`) + extra rollouts) x the robust ensemble's models, each of the planning steps
+        of its horizon (:meth:`horizon_at`); no rollouts for a planner without them."""
+        steps = max(1, int(round(self.horizon_at(t) / self.dt)))
+        if not self.needs_rollouts:
+            return 0, steps
+        acquiring = self.acquire_samples is not None and self.acquiring(t)
+        samples = self._budgeted(self.acquire_samples if acquiring else self.num_samples, steps)
+        models = len(self._models) if self._models else 1
+        return self.iterations * (samples + self.extra_rollouts) * models, steps
 
     def rollouts_per_plan(self, steps: int | None = None, acquire: bool = True) -> int:
         """The rollouts one plan runs at most: ``iterations x (samples + extra_rollouts)`` x the robust
