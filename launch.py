@@ -63,6 +63,7 @@ LABELS = (
     "perturbation",
     "operating_point",
     "challenge",
+    "loop",
 )
 
 DEFAULT_VARIANT = ("full", {"planner": "predictive_sampling", "cost": "contact", "sampler": "pca_spline"})

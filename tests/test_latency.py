@@ -346,7 +346,8 @@ def test_loop_per_plan_prices_at_the_calibrated_sample_step_and_fixed_changes_no
 @pytest.mark.slow
 def test_a_per_plan_trial_records_its_plans_latencies(tmp_path):
     run = tmp_path / "run"
-    r = launch_py("loop=per_plan", "planner.acquire_samples=64", "duration=0.3", f"hydra.run.dir={run}", *QUIET)
+    overrides = ("loop=per_plan", "planner.acquire_samples=64", "duration=0.3", f"hydra.run.dir={run}")
+    r = launch_py(*overrides, *QUIET)
     assert r.returncode == 0, r.stderr
     record = json.loads((run / "trial.json").read_text())
     assert record["latency"] == max(float(k) for k in record["plan_latencies"])

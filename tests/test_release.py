@@ -166,7 +166,11 @@ def _trial_and_series(release: float, knocked: bool):
         replan_interval=DT,
         latency=0.0,
         planner=SimpleNamespace(
-            switch_timestep=None, switched_at=None, switch_back_after=None, switch_back_held=False
+            switch_timestep=None,
+            switched_at=None,
+            switch_back_after=None,
+            switch_back_held=False,
+            latency_per_plan=False,
         ),
     )
     return series, trial
@@ -184,7 +188,11 @@ def test_summarize_records_the_end_of_the_trial():
     assert rec["object_position_error_after_mean"] == pytest.approx(0.0)
     assert "switch_time" not in rec  # only with planner.switch_timestep
     trial.planner = SimpleNamespace(
-        switch_timestep=0.005, switched_at=None, switch_back_after=None, switch_back_held=False
+        switch_timestep=0.005,
+        switched_at=None,
+        switch_back_after=None,
+        switch_back_held=False,
+        latency_per_plan=False,
     )
     rec = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
     assert rec["switch_time"] is None and "switch_back_time" not in rec  # it never switched

@@ -182,6 +182,50 @@ def test_the_method_studys_latency_section_sets_each_trial_beside_its_seed_at_th
     assert "No such trial" in spec.latency_section(SimpleNamespace(dir=tmp_path / "none"), base)
 
 
+def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed_latency_and_online(
+    tmp_path, monkeypatch
+) -> None:
+    """loop_section: per task and thread count, the per-plan trials' counts beside the same seeds at the
+    calibrated fixed latency (Barnard's test) and, on 2 threads, the method's online runs at slowdown 1 in
+    real time (not those held or paced); the seeds that differ from the fixed latency named."""
+    import json
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    spec = Study("method").spec
+
+    def write(folder: str, name: str, record: dict) -> None:
+        run = tmp_path / folder / name
+        run.mkdir(parents=True)
+        (run / "trial.json").write_text(json.dumps(record))
+
+    for threads, seed, done in ((7, 0, True), (7, 1, True), (2, 0, False), (2, 1, True)):
+        planner = {"latency_per_plan": True, "latency_model": {"threads": threads}}
+        lat = {"0.170": 10, "0.043": 90} if threads == 7 else {"0.593": 5, "0.148": 60}
+        write("loop", f"t{threads}s{seed}", {"task": "paper_stapler", "seed": seed, "completed": done,
+              "finished_cleanly": done, "ttf": 1.0 if done else 0.3, "cpu_seconds": 100.0 * threads,
+              "plan_latencies": lat, "config": {"planner": planner}})  # fmt: skip
+    other = {"task": "paper_stapler", "seed": 3, "completed": True, "config": {"planner": {}}}
+    write("loop", "fixed", other)  # another loop: left out
+    for seed, done, held in ((0, True, None), (1, False, None), (2, True, 0.17)):
+        run = {"task": "paper_stapler", "seed": seed, "slowdown": 1.0, "completed": done,
+               "finished_cleanly": False, "apply_after": held}  # fmt: skip
+        write("online", f"o{seed}", run)
+    base = pd.DataFrame({"task": ["stapler"] * 2, "variant": [spec.METHOD] * 2, "seed": [0, 1],
+                         "counted": [True] * 2, "completed": [True, False],
+                         "finished_cleanly": [True, False]})  # fmt: skip
+    monkeypatch.setattr(spec, "heldout_frame", lambda study, chosen: (base.iloc[:0],) * 3)
+    text = spec.loop_section(SimpleNamespace(dir=tmp_path), base)
+    row7 = f"| stapler | `{spec.METHOD}` | 7 | 170 / 43 | 0 and 1 | 2 of 2 | 2 | 1.00 | 700 | 1 of 2 / 1 | "
+    assert row7 in text and text.split(row7)[1].split("\n")[0].endswith("| — |")  # no online beside 7
+    row2 = f"| stapler | `{spec.METHOD}` | 2 | 593 / 148 | 0 and 1 | 1 of 2 | 1 | 0.65 | 200 | 1 of 2 / 1 | "
+    assert row2 in text and text.split(row2)[1].split("\n")[0].endswith("| 1 of 2 / 0 |")
+    assert "- stapler, 7 threads: completed only here on seed 1; only at the fixed 170 ms on no seed." in text
+    assert "- stapler, 2 threads: completed only here on seed 1; only at the fixed 170 ms on seed 0." in text
+    assert "No such trial" in spec.loop_section(SimpleNamespace(dir=tmp_path / "none"), base)
+
+
 def test_the_method_study_reads_how_fast_a_slide_leaves_the_hand(tmp_path) -> None:
     """leaving_speed: the slide's mean speed from 0.2 to 1.2 s after the last contact, against the
     settle tolerance over the time left; None without a contact or a second after it."""

@@ -2428,6 +2428,105 @@ def held_online(study) -> str:
     return "\n".join(lines) + "\n" if lines else ""
 
 
+def loop_threads(r: dict) -> int | None:
+    """The threads a ``loop=per_plan`` record's latency model prices its plans on (``None``: another
+    loop)."""
+    planner = (r.get("config") or {}).get("planner") or {}
+    if not planner.get("latency_per_plan"):
+        return None
+    return (planner.get("latency_model") or {}).get("threads")
+
+
+def loop_section(study, df: pd.DataFrame) -> str:
+    """Simulated trials in MuJoCo MPC's loop on a machine of N threads (``loop=per_plan``,
+    ``loop/<run>/trial.json``, made by ``run_loop.sh``): per task and thread count, completed / finished
+    cleanly beside the same method's trials of the same seeds at the calibrated fixed latency (the study's
+    records) and, on 2 threads, beside its online runs in real time on this machine's 2 threads."""
+    records = [r for r in kept(study, "loop") if loop_threads(r)]
+    calibrated = 1e3 * (planned_latency() or math.nan)
+    head = (
+        "A simulated trial charges every plan the calibrated latency, what the grasp's plans of "
+        f"`effort=acquire` (128 samples) cost on the paper's 7 threads: {calibrated:.0f} ms. In MuJoCo "
+        "MPC's loop each plan takes what its own samples cost. `loop=per_plan` "
+        "(`planner.latency_per_plan`) applies each plan its own price after its state (its sample-steps at "
+        "`preset=paper_calibrated`'s per sample-step cost, over the model's threads) and starts the next "
+        "plan then: the plans after the grasp (32 samples) land 4 times sooner and come 4 times as often. "
+        "`planner.latency_model.threads` sets the machine: 7, the paper's; 2, this machine's cores, which "
+        "the online runs plan on (*Online, in wall-clock time*). Reproducible, unlike an online run: the "
+        "latencies are priced from the config, not measured (`THREADS=7 bash studies/method/run_loop.sh`). "
+        "*Plans land after*: the grasp's plans' latency and the later plans' (the record's "
+        "`plan_latencies`).\n\n"
+    )
+    if not records:
+        return head + "No such trial is kept yet.\n"
+    ok = counted(df)
+    held = heldout_frame(study, df)[0]
+    ok = pd.concat([x for x in (ok, held) if len(x)]) if len(ok) or len(held) else ok
+    runs = [
+        r
+        for r in kept(study, "online")
+        if r.get("slowdown") == 1 and not (r.get("apply_after") or r.get("min_interval"))
+    ]
+    key = lambda r: (r.get("task", ""), method_name(r) or METHOD, loop_threads(r))  # noqa: E731
+    rank = {t: i for i, t in enumerate(TASK_ORDER)}
+    conditions = sorted({key(r) for r in records}, key=lambda k: (rank.get(k[0][6:], 99), k[1], -k[2]))
+    rows, lines = [], []
+    for task, method, threads in conditions:
+        group = sorted((r for r in records if key(r) == (task, method, threads)), key=lambda r: r["seed"])
+        name = task.removeprefix("paper_")
+        seed_list = [r["seed"] for r in group]
+        base = cell(ok, name, method) if len(ok) else ok
+        base = base[base["seed"].isin(seed_list)] if len(base) else base
+        lats = sorted({float(v) for r in group for v in (r.get("plan_latencies") or {})})
+        land = f"{1e3 * lats[-1]:.0f} / {1e3 * lats[0]:.0f}" if lats else "—"
+        done = sum(bool(r.get("completed")) for r in group)
+        clean = sum(bool(r.get("finished_cleanly")) for r in group)
+        fixed, p = "—", None
+        if len(base):
+            fixed = f"{of(int(base['completed'].sum()), len(base))} / {int(base['finished_cleanly'].sum())}"
+            p = completion_test(done, len(group), int(base["completed"].sum()), len(base))[0]
+        live = [r for r in runs if r.get("task") == task and (method_name(r) or METHOD) == method]
+        online_cell = "—"
+        if threads == 2 and live:
+            online_cell = (
+                f"{of(sum(bool(r.get('completed')) for r in live), len(live))} / "
+                f"{sum(bool(r.get('finished_cleanly')) for r in live)}"
+            )
+        rows.append(
+            f"| {name} | `{method}` | {threads} | {land} | {seeds(seed_list)} | {of(done, len(group))} "
+            f"| {clean} | {median([r.get('ttf') for r in group], '{:.2f}')} "
+            f"| {median([r.get('cpu_seconds') for r in group])} | {fixed} "
+            f"| {Fmt.p(p) if p is not None else '—'} | {online_cell} |"
+        )
+        if len(base):
+            was = dict(zip(base["seed"], base["completed"], strict=True))
+            gained = [r["seed"] for r in group if r.get("completed") and not was.get(r["seed"], True)]
+            lost = [r["seed"] for r in group if not r.get("completed") and was.get(r["seed"], False)]
+            if gained or lost:
+                lines.append(
+                    f"- {name}, {threads} threads: completed only here on "
+                    f"{_seeds(gained) if gained else 'no seed'}; only at the fixed {calibrated:.0f} ms on "
+                    f"{_seeds(lost) if lost else 'no seed'}."
+                )
+    cols = (
+        "task", "method", "threads", "plans land after (ms): grasp / later", "seeds", "completed",
+        "finished cleanly", "median TTF", "median CPU-s", f"fixed {calibrated:.0f} ms, same seeds: "
+        "completed / clean", "Barnard p (completed)", "online, 2 threads, real time: completed / clean",
+    )  # fmt: skip
+    note = (
+        "\n*Online*: the method's runs at slowdown 1 (every run of it, seeds 0-9 and re-runs), which plan "
+        "continuously on this machine's 2 threads while the plant steps in a third thread on the same 2 "
+        "cores; their grasp plans take longer than the model's 2 threads price (*Online, in wall-clock "
+        "time*: their measured medians).\n"
+    )
+    return (
+        head
+        + pipe_table(cols, "lllllrrrrlrl", rows)
+        + note
+        + ("\n" + "\n".join(lines) + "\n" if lines else "")
+    )
+
+
 # ---------------------------------------------------------------------------------------------- report
 
 
@@ -2656,6 +2755,8 @@ def report(study) -> str:
         + online(study)
         + "\n## At another latency\n\n"
         + latency_section(study, df)
+        + "\n## On a machine of N threads\n\n"
+        + loop_section(study, df)
         + "\n## Per seed\n\n"
         + (
             "The final object error (mm, or x 1e-3 on the doorknob) and how each trial ended (clean = "
