@@ -216,14 +216,19 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
                          "counted": [True] * 2, "completed": [True, False],
                          "finished_cleanly": [True, False]})  # fmt: skip
     monkeypatch.setattr(spec, "heldout_frame", lambda study, chosen: (base.iloc[:0],) * 3)
-    text = spec.loop_section(SimpleNamespace(dir=tmp_path), base)
+    drawn = []
+    study = SimpleNamespace(
+        dir=tmp_path, draw=lambda name, make, alt: drawn.append(name) or make(tmp_path / name)
+    )
+    text = spec.loop_section(study, base)
+    assert drawn == ["loop.png"] and (tmp_path / "loop.png").stat().st_size > 1000
     row7 = f"| stapler | `{spec.METHOD}` | 7 | 170 / 43 | 0 and 1 | 2 of 2 | 2 | 1.00 | 700 | 1 of 2 / 1 | "
     assert row7 in text and text.split(row7)[1].split("\n")[0].endswith("| — |")  # no online beside 7
     row2 = f"| stapler | `{spec.METHOD}` | 2 | 593 / 148 | 0 and 1 | 1 of 2 | 1 | 0.65 | 200 | 1 of 2 / 1 | "
     assert row2 in text and text.split(row2)[1].split("\n")[0].endswith("| 1 of 2 / 0 |")
     assert "- stapler, 7 threads: completed only here on seed 1; only at the fixed 170 ms on no seed." in text
     assert "- stapler, 2 threads: completed only here on seed 1; only at the fixed 170 ms on seed 0." in text
-    assert "No such trial" in spec.loop_section(SimpleNamespace(dir=tmp_path / "none"), base)
+    assert "No such trial" in spec.loop_section(SimpleNamespace(dir=tmp_path / "none", draw=None), base)
 
 
 def test_the_method_study_reads_how_fast_a_slide_leaves_the_hand(tmp_path) -> None:

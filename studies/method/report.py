@@ -2470,7 +2470,7 @@ def loop_section(study, df: pd.DataFrame) -> str:
     key = lambda r: (r.get("task", ""), method_name(r) or METHOD, loop_threads(r))  # noqa: E731
     rank = {t: i for i, t in enumerate(TASK_ORDER)}
     conditions = sorted({key(r) for r in records}, key=lambda k: (rank.get(k[0][6:], 99), k[1], -k[2]))
-    rows, lines = [], []
+    rows, lines, bars = [], [], []
     for task, method, threads in conditions:
         group = sorted((r for r in records if key(r) == (task, method, threads)), key=lambda r: r["seed"])
         name = task.removeprefix("paper_")
@@ -2492,6 +2492,18 @@ def loop_section(study, df: pd.DataFrame) -> str:
                 f"{of(sum(bool(r.get('completed')) for r in live), len(live))} / "
                 f"{sum(bool(r.get('finished_cleanly')) for r in live)}"
             )
+        if not any(b[0] == name for b in bars) and len(base):  # the fixed latency's once a task
+            base_all = cell(ok, name, method)
+            base_all = base_all[base_all["seed"].isin({r["seed"] for r in records if r["task"] == task})]
+            count = (int(base_all["completed"].sum()), int(base_all["finished_cleanly"].sum()))
+            bars.append((name, f"fixed {calibrated:.0f} ms", len(base_all), *count))
+        bars.append((name, f"{threads} threads", len(group), done, clean))
+        if threads == 2 and live:
+            count = (
+                sum(bool(r.get("completed")) for r in live),
+                sum(bool(r.get("finished_cleanly")) for r in live),
+            )
+            bars.append((name, "online, 2 threads", len(live), *count))
         rows.append(
             f"| {name} | `{method}` | {threads} | {land} | {seeds(seed_list)} | {of(done, len(group))} "
             f"| {clean} | {median([r.get('ttf') for r in group], '{:.2f}')} "
@@ -2519,12 +2531,46 @@ def loop_section(study, df: pd.DataFrame) -> str:
         "cores; their grasp plans take longer than the model's 2 threads price (*Online, in wall-clock "
         "time*: their measured medians).\n"
     )
+    link = study.draw(
+        "loop.png",
+        lambda path: loop_figure(path, bars),
+        "the method at the fixed latency, on machines of N threads and online: trials completed and "
+        "finished cleanly, per task",
+    )
     return (
         head
         + pipe_table(cols, "lllllrrrrlrl", rows)
         + note
         + ("\n" + "\n".join(lines) + "\n" if lines else "")
+        + (f"\n{link}\n" if link else "")
     )
+
+
+def loop_figure(path: Path, bars: list[tuple[str, str, int, int, int]]) -> None:
+    """Per task, the share of trials completed (pale) and finished cleanly (solid) in each loop: ``bars`` of
+    ``(task, loop, trials, completed, clean)``."""
+    import matplotlib.pyplot as plt
+
+    tasks = list(dict.fromkeys(b[0] for b in bars))
+    loops = list(dict.fromkeys(b[1] for b in bars))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, axes = plt.subplots(1, len(tasks), figsize=(3.4 * len(tasks), 3.8), squeeze=False, sharey=True)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        mine = [b for b in bars if b[0] == task]
+        for i, (_, loop, n, done, clean) in enumerate(mine):
+            c = colors[loops.index(loop) % len(colors)]
+            ax.bar(i, done / n, width=0.7, color=c, alpha=0.35)
+            ax.bar(i, clean / n, width=0.7, color=c)
+            ax.text(i, done / n + 0.02, f"{clean}/{done}/{n}", ha="center", fontsize=7)
+        ax.axhline(TARGET_CLEAN / TARGET_SEEDS, color="k", lw=0.8, ls="--")
+        ax.set_title(task)
+        ax.set_xticks(range(len(mine)), [b[1].replace(", ", ",\n") for b in mine], fontsize=7)
+        ax.set_ylim(0, 1.12)
+    axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
+    fig.suptitle("the method in each loop on the same seeds; clean/completed/trials", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 # ---------------------------------------------------------------------------------------------- report
