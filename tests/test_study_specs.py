@@ -231,6 +231,24 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
     assert "No such trial" in spec.loop_section(SimpleNamespace(dir=tmp_path / "none", draw=None), base)
 
 
+def test_the_machine_section_sets_the_models_prices_beside_the_benchmarks_measured_plans(tmp_path) -> None:
+    """measured_prices: the per-plan model's grasp / later prices on each thread count beside the plan
+    benchmark's (rollout=paper) over the same threads, and on how many tasks the plans cost more."""
+    from types import SimpleNamespace
+
+    spec = Study("method").spec
+    (tmp_path / "figures").mkdir()
+    rows = ["task,rollout,state,plan_cpu_seconds", "paper_apple,paper,approach,1.4",
+            "paper_apple,paper,contact,0.5", "paper_apple,fine,approach,9.0",
+            "paper_stapler,paper,approach,1.0", "paper_stapler,paper,contact,0.2"]  # fmt: skip
+    (tmp_path / "figures" / spec.PLAN_COSTS).write_text("\n".join(rows) + "\n")
+    text = spec.measured_prices(SimpleNamespace(dir=tmp_path), [7, 2])
+    assert "a grasp / later plan 170 / 43 ms on 7, 592 / 148 ms on 2 threads" in text
+    assert "apple 200 / 71 ms on 7, 700 / 250 ms on 2; stapler 143 / 29 ms on 7, 500 / 100 ms on 2." in text
+    assert "more than the model charges on 1 of 2 tasks" in text and "a grasp plan on 1 of 2" in text
+    assert spec.measured_prices(SimpleNamespace(dir=tmp_path / "none"), [7]) == ""
+
+
 def test_the_method_study_reads_how_fast_a_slide_leaves_the_hand(tmp_path) -> None:
     """leaving_speed: the slide's mean speed from 0.2 to 1.2 s after the last contact, against the
     settle tolerance over the time left; None without a contact or a second after it."""

@@ -23,6 +23,7 @@ from analysis.prose import glance_row, median, of, seeds, span
 from analysis.study import REPO, sweep_params
 from analysis.summarize import Fmt, Stat, markdown, pipe_table, summarize
 from analysis.timeline import timeline
+from contactmpc.control.latency import ComputeLatency
 from contactmpc.labels import GROUPS, NAMED_VARIANTS, method_labels, method_name
 
 QUESTION = (
@@ -2531,6 +2532,7 @@ def loop_section(study, df: pd.DataFrame) -> str:
         "cores; their grasp plans take longer than the model's 2 threads price (*Online, in wall-clock "
         "time*: their measured medians).\n"
     )
+    measured = measured_prices(study, sorted({k[2] for k in conditions}))
     link = study.draw(
         "loop.png",
         lambda path: loop_figure(path, bars),
@@ -2543,6 +2545,42 @@ def loop_section(study, df: pd.DataFrame) -> str:
         + note
         + ("\n" + "\n".join(lines) + "\n" if lines else "")
         + (f"\n{link}\n" if link else "")
+        + (f"\n{measured}\n" if measured else "")
+    )
+
+
+def measured_prices(study, threads: list[int]) -> str:
+    """What the plan benchmark measured the method's plans to cost (``figures/plan_benchmark.csv``,
+    ``rollout=paper``: the grasp's plan at the *approach* state, a later one at *contact*), over each of
+    ``threads``, beside what the per-plan loop's model charges them; empty without the benchmark."""
+    path = None if study is None else study.dir / "figures" / PLAN_COSTS
+    if path is None or not path.is_file() or not threads:
+        return ""
+    costs = pd.read_csv(path)
+    costs = costs[costs["rollout"] == "paper"].set_index(["task", "state"])["plan_cpu_seconds"]
+    model = OmegaConf.select(OmegaConf.load(CONF / "loop" / "per_plan.yaml"), "planner.latency_model")
+    step = float(model.sample_step_seconds)
+    price = lambda n, samples: ComputeLatency(step, n).seconds(samples, 250, 0.001)  # noqa: E731
+    parts, dearer, fixed_costs = [], 0, 0
+    for task in (t for t in TASK_ORDER if (f"paper_{t}", "approach") in costs.index):
+        grasp, later = (float(costs[(f"paper_{task}", state)]) for state in ("approach", "contact"))
+        at = ", ".join(f"{1e3 * grasp / n:.0f} / {1e3 * later / n:.0f} ms on {n}" for n in threads)
+        parts.append(f"{task} {at}")
+        dearer += grasp > 128 * 250 * step
+        fixed_costs += later > grasp / 4
+    if not parts:
+        return ""
+    priced = ", ".join(f"{1e3 * price(n, 128):.0f} / {1e3 * price(n, 32):.0f} ms on {n}" for n in threads)
+    return (
+        f"*The model's prices against the plans' measured cost.* The model charges a sample-step "
+        f"{1e6 * step:.0f} us (calibrated on the paper's method, `variant=full`): a grasp / later plan "
+        f"{priced} threads. The method's own plans, measured on one thread of this CPU (*What a plan costs "
+        "with each planning model*, `rollout=paper`) and divided by the threads (perfect scaling): "
+        + "; ".join(parts)
+        + f". A grasp plan costs more than the model charges on {dearer} of {len(parts)} tasks, and a later "
+        f"plan more than a quarter of a grasp plan on {fixed_costs} of {len(parts)}: where it does, the "
+        "model's machine is faster than this CPU with as many threads, and its trials are an optimistic "
+        "estimate of what the method does on this CPU."
     )
 
 
