@@ -388,7 +388,9 @@ class OnlineLoop:
         * ``plan_seconds_grasp_median``: the median wall time of the plans planned from a state 1 s before
           to 2 s after the reference's first expected contact (the grasp: where ``effort=acquire`` draws its
           samples); ``plan_seconds_after_grasp_median``: of those planned from then on (``None`` without a
-          first expected contact, or without such plans).
+          first expected contact, or without such plans). ``plan_seconds_by_samples``: the median wall
+          time of the plans that drew each number of samples (``{"128": ..., "32": ...}`` with
+          ``effort=acquire``: the grasp's plans and the later ones, whatever state they planned from).
         * ``plant_wait_seconds``: wall time the plant slept to keep its pace (its headroom);
           ``plant_behind_seconds``: wall time the schedule slipped because the plant fell more than
           ``max_lag`` behind (0: it kept up, ``kept_up``); ``plant_lag_max``: the most it was behind
@@ -439,6 +441,7 @@ class OnlineLoop:
             "plan_seconds_p95": _median_p95(seconds)[1],
             "plan_seconds_grasp_median": _median_p95(grasp)[0],
             "plan_seconds_after_grasp_median": _median_p95(after)[0],
+            "plan_seconds_by_samples": self._plans_by_samples(),
             "diverged_rollouts": int(sum(p.info.num_diverged for p in self.plans)),
             "planner_threads": self.planner_threads,
             "first_plan_wait": self.first_plan_wait,
@@ -459,6 +462,14 @@ class OnlineLoop:
         times = [(p.state_time, p.info.seconds) for p in self.plans]
         grasp = [s for t, s in times if first - before <= t < first + until]
         return grasp, [s for t, s in times if t >= first + until]
+
+    def _plans_by_samples(self) -> dict[str, float]:
+        """The median wall time of the plans that drew each number of samples (the most first)."""
+        counts = sorted({p.info.samples for p in self.plans}, reverse=True)
+        return {
+            str(n): float(np.median([p.info.seconds for p in self.plans if p.info.samples == n]))
+            for n in counts
+        }
 
     def plan_series(self) -> dict[str, np.ndarray]:
         """Per-plan arrays for ``timeseries.npz``: ``plans_state_time`` (the control time each plan was

@@ -223,9 +223,8 @@ def test_acquire_samples_draw_more_until_after_the_first_contact_and_are_priced(
     problem.bind(off)
     planner.problem.first_contact = off.problem.first_contact = 0.1
     sizes = count_candidates(planner)
-    for t in (0.0, 0.29, 0.3, 0.5):
-        planner.plan(t, problem.state, np.random.default_rng(0))
-    assert sizes == [20, 20, 8, 8]
+    infos = [planner.plan(t, problem.state, np.random.default_rng(0)) for t in (0.0, 0.29, 0.3, 0.5)]
+    assert sizes == [20, 20, 8, 8] == [info.samples for info in infos]
     assert [planner.samples_at(t) for t in (0.0, 0.3)] == [20, 8] and off.samples_at(0.0) == 8
     # after the window the plan is the one without the option, bit for bit (same nominal, same draws)
     assert_plans_alike(planner, off, 0.5, problem.state)

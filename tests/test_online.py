@@ -81,6 +81,7 @@ def test_an_online_run_swaps_plans_in_and_writes_its_record(apple_reference, tmp
     assert len(series["plans_state_time"]) == record["num_plans"]
     for key in ("plan_seconds_grasp_median", "plan_seconds_after_grasp_median"):
         assert record[key] is None or record[key] > 0, key
+    assert list(record["plan_seconds_by_samples"]) == ["32"]  # the lite preset's samples, every plan
 
 
 def test_the_grasp_plans_are_those_planned_from_1_s_before_to_2_s_after_the_first_contact():
@@ -97,6 +98,9 @@ def test_the_grasp_plans_are_those_planned_from_1_s_before_to_2_s_after_the_firs
     assert grasp == [10.5, 12.0, 13.25] and after == [13.5, 14.0]
     loop.trial.planner.problem.first_contact = None
     assert loop._grasp_plans() == ([], [])
+    for plan, samples in zip(loop.plans, (128, 128, 32, 128, 32, 32, 32), strict=True):
+        plan.info.samples = samples  # by the samples each drew, whatever state it planned from
+    assert loop._plans_by_samples() == {"128": 10.4, "32": 13.375}
 
 
 class SlowReplay(Replay):

@@ -46,6 +46,8 @@ class PlanInfo:
         window: (Mw,) indices of the control points that could change.
         seconds: wall time of the iteration.
         iterations: sampling iterations it ran (``planner.iterations``, fewer when it stopped early).
+        samples: the samples an iteration drew (``acquire_samples`` in the acquire window, cut to
+            ``step_budget``); 0 without rollouts.
         reference_time: the reference's time it planned at (s); ``None``: ``time`` (the reference is not
             paced, ``planner.pace_lag``).
         prediction: (:attr:`Planner.compensate_latency`) how far the state it planned from is from where
@@ -62,6 +64,7 @@ class PlanInfo:
     window: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     seconds: float = 0.0
     iterations: int = 1
+    samples: int = 0
     reference_time: float | None = None
     prediction: tuple[float, float] | None = None
 
@@ -866,6 +869,7 @@ class Planner:
             num_diverged=num_diverged,
             seconds=time.perf_counter() - start,
             iterations=i + 1,
+            samples=len(candidates),
         )
 
     def commit(self, scored: Scored) -> tuple[np.ndarray, float, dict[str, float]]:
