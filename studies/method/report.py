@@ -2259,6 +2259,13 @@ def shortfall(df: pd.DataFrame, study=None) -> str:
 # ---------------------------------------------------------------------------------------------- latency
 
 
+def with_heldout(study, df: pd.DataFrame) -> pd.DataFrame:
+    """The trials that count, the sweep's (:func:`counted`) and the held-out ones (:func:`heldout_frame`)."""
+    ok = counted(df)
+    held = heldout_frame(study, df)[0]
+    return pd.concat([x for x in (ok, held) if len(x)]) if len(ok) or len(held) else ok
+
+
 def latency_section(study, df: pd.DataFrame) -> str:
     """Simulated trials of a method at another latency than the calibrated one
     (``latency/<run>/trial.json``, made by ``run_latency.sh``): per task and seed, completed / finished
@@ -2281,9 +2288,7 @@ def latency_section(study, df: pd.DataFrame) -> str:
     )
     if not records:
         return head + "No such trial is kept yet.\n"
-    ok = counted(df)
-    held = heldout_frame(study, df)[0]
-    ok = pd.concat([x for x in (ok, held) if len(x)]) if len(ok) or len(held) else ok
+    ok = with_heldout(study, df)
     calibrated = 1e3 * (planned_latency() or math.nan)
 
     def at_calibrated(task: str, seeds: list, method: str) -> pd.DataFrame:
@@ -2460,9 +2465,7 @@ def loop_section(study, df: pd.DataFrame) -> str:
     )
     if not records:
         return head + "No such trial is kept yet.\n"
-    ok = counted(df)
-    held = heldout_frame(study, df)[0]
-    ok = pd.concat([x for x in (ok, held) if len(x)]) if len(ok) or len(held) else ok
+    ok = with_heldout(study, df)
     runs = [
         r
         for r in kept(study, "online")
