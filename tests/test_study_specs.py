@@ -205,7 +205,7 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
         lat = {"0.170": 10, "0.043": 90} if threads == 7 else {"0.593": 5, "0.148": 60}
         write("loop", f"t{threads}s{seed}", {"task": "paper_stapler", "seed": seed, "completed": done,
               "finished_cleanly": done, "ttf": 1.0 if done else 0.3, "cpu_seconds": 100.0 * threads,
-              "plan_latencies": lat, "config": {"planner": planner}})  # fmt: skip
+              "plan_latencies": lat, "config": {"planner": planner}, "cpu": "A"})  # fmt: skip
     other = {"task": "paper_stapler", "seed": 3, "completed": True, "config": {"planner": {}}}
     write("loop", "fixed", other)  # another loop: left out
     for seed, done, held in ((0, True, None), (1, False, None), (2, True, 0.17)):
@@ -214,7 +214,7 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
         write("online", f"o{seed}", run)
     base = pd.DataFrame({"task": ["stapler"] * 2, "variant": [spec.METHOD] * 2, "seed": [0, 1],
                          "counted": [True] * 2, "completed": [True, False],
-                         "finished_cleanly": [True, False]})  # fmt: skip
+                         "finished_cleanly": [True, False], "cpu": ["A", "B"]})  # fmt: skip
     monkeypatch.setattr(spec, "heldout_frame", lambda study, chosen: (base.iloc[:0],) * 3)
     drawn = []
     study = SimpleNamespace(
@@ -226,8 +226,16 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
     assert row7 in text and text.split(row7)[1].split("\n")[0].endswith("| — |")  # no online beside 7
     row2 = f"| stapler | `{spec.METHOD}` | 2 | 593 / 148 | 0 and 1 | 1 of 2 | 1 | 0.65 | 200 | 1 of 2 / 1 | "
     assert row2 in text and text.split(row2)[1].split("\n")[0].endswith("| 1 of 2 / 0 |")
-    assert "- stapler, 7 threads: completed only here on seed 1; only at the fixed 170 ms on no seed." in text
-    assert "- stapler, 2 threads: completed only here on seed 1; only at the fixed 170 ms on seed 0." in text
+    apart = "(1 of 2 trials ran on another processor than their seed's at the fixed latency: for those only"
+    assert (
+        "- stapler, 7 threads: completed only here on no seed; only at the fixed 170 ms on no seed " + apart
+        in text
+    )
+    assert (
+        "- stapler, 2 threads: completed only here on no seed; only at the fixed 170 ms on seed 0 " + apart
+        in text
+    )
+    assert "The trials ran on A (4)." in text
     assert "No such trial" in spec.loop_section(SimpleNamespace(dir=tmp_path / "none", draw=None), base)
 
 

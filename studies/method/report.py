@@ -2474,6 +2474,8 @@ def loop_section(study, df: pd.DataFrame) -> str:
     key = lambda r: (r.get("task", ""), method_name(r) or METHOD, loop_threads(r))  # noqa: E731
     rank = {t: i for i, t in enumerate(TASK_ORDER)}
     conditions = sorted({key(r) for r in records}, key=lambda k: (rank.get(k[0][6:], 99), k[1], -k[2]))
+    machines = pd.Series([str(r.get("cpu") or "unknown CPU") for r in records]).value_counts()
+    head += "The trials ran on " + Fmt.listing([f"{m} ({n})" for m, n in machines.items()]) + ".\n\n"
     rows, lines, bars = [], [], []
     for task, method, threads in conditions:
         group = sorted((r for r in records if key(r) == (task, method, threads)), key=lambda r: r["seed"])
@@ -2514,15 +2516,25 @@ def loop_section(study, df: pd.DataFrame) -> str:
             f"| {median([r.get('cpu_seconds') for r in group])} | {fixed} "
             f"| {Fmt.p(p) if p is not None else '—'} | {online_cell} |"
         )
-        if len(base):
-            was = dict(zip(base["seed"], base["completed"], strict=True))
-            gained = [r["seed"] for r in group if r.get("completed") and not was.get(r["seed"], True)]
-            lost = [r["seed"] for r in group if not r.get("completed") and was.get(r["seed"], False)]
-            if gained or lost:
+        if len(base):  # seed by seed only where both ran on one processor (else another draw)
+            cpus = base["cpu"] if "cpu" in base else pd.Series([None] * len(base), index=base.index)
+            was = {sd: (c, cpu) for sd, c, cpu in zip(base["seed"], base["completed"], cpus, strict=True)}
+            same = [r for r in group if r["seed"] in was and was[r["seed"]][1] == r.get("cpu")]
+            gained = [r["seed"] for r in same if r.get("completed") and not was[r["seed"]][0]]
+            lost = [r["seed"] for r in same if not r.get("completed") and was[r["seed"]][0]]
+            apart = len(group) - len(same)
+            if gained or lost or apart:
                 lines.append(
                     f"- {name}, {threads} threads: completed only here on "
                     f"{_seeds(gained) if gained else 'no seed'}; only at the fixed {calibrated:.0f} ms on "
-                    f"{_seeds(lost) if lost else 'no seed'}."
+                    f"{_seeds(lost) if lost else 'no seed'}"
+                    + (
+                        f" ({apart} of {len(group)} trials ran on another processor than their seed's at "
+                        "the fixed latency: for those only the counts compare)"
+                        if apart
+                        else ""
+                    )
+                    + "."
                 )
     cols = (
         "task", "method", "threads", "plans land after (ms): grasp / later", "seeds", "completed",
