@@ -314,8 +314,11 @@ def test_per_plan_latency_prices_the_phase_of_the_plans_state():
 @pytest.mark.parametrize(
     ("args", "named"),
     [
-        ({}, "not with a fixed latency is every plan's"),
-        ({"latency_model": PRICED, "switch_timestep": 0.005}, "not with a state-dependent switch"),
+        ({}, "not with a fixed latency"),
+        (
+            {"latency_model": PRICED, "switch_timestep": 0.005},
+            "not with a planning model switched on the state",
+        ),
         ({"latency_model": PRICED, "pace_lag": 0.03}, "not with a paced reference"),
     ],
 )

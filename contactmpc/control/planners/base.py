@@ -254,18 +254,19 @@ class Planner:
                 f"{type(self).__name__}: latency = {latency:g} s and a latency_model are both set: "
                 "choose one (planner.latency=0 or planner.latency_model=null)"
             )
-        if latency_per_plan:
-            why = (
-                "a fixed latency is every plan's (set planner.latency_model)"
-                if latency_model is None
-                else "a state-dependent switch of planning model (planner.switch_timestep)"
-                if switch_timestep is not None
-                else "a paced reference (planner.pace_lag), which can plan another phase's samples"
-                if pace_lag is not None
-                else None
-            )
-            if why:
-                raise ConfigError(f"planner.latency_per_plan prices each plan by its time: not with {why}")
+        if latency_per_plan:  # each plan priced by its time alone (Trial.schedule): nothing else may set it
+            for on, why in (
+                (latency_model is None, "a fixed latency (set planner.latency_model)"),
+                (
+                    switch_timestep is not None,
+                    "a planning model switched on the state (planner.switch_timestep)",
+                ),
+                (pace_lag is not None, "a paced reference, whose phase lags its time (planner.pace_lag)"),
+            ):
+                if on:
+                    raise ConfigError(
+                        f"planner.latency_per_plan prices each plan by its time: not with {why}"
+                    )
         if pace_rate >= 1.0:
             raise ConfigError(
                 f"planner.pace_rate = {pace_rate:g}: a waiting reference's clock must run slower than 1"
@@ -515,21 +516,21 @@ class Planner:
         (:meth:`samples_at`) + extra rollouts) x the robust ensemble's models, each of the planning steps
         of its horizon (:meth:`horizon_at`); no rollouts for a planner without them."""
         steps = max(1, int(round(self.horizon_at(t) / self.dt)))
-        if not self.needs_rollouts:
-            return 0, steps
         acquiring = self.acquire_samples is not None and self.acquiring(t)
-        samples = self._budgeted(self.acquire_samples if acquiring else self.num_samples, steps)
-        models = len(self._models) if self._models else 1
-        return self.iterations * (samples + self.extra_rollouts) * models, steps
+        return self._rollouts(self.acquire_samples if acquiring else self.num_samples, steps), steps
 
     def rollouts_per_plan(self, steps: int | None = None, acquire: bool = True) -> int:
         """The rollouts one plan runs at most: ``iterations x (samples + extra_rollouts)`` x the robust
         ensemble's models; 0 for a planner without rollouts. ``steps``: the horizon's planning steps the
         ``step_budget`` counts (``None``: the bound model's); ``acquire``: False where the plans cannot be
         in the acquire window (``acquire_samples``)."""
+        return self._rollouts(max(self.num_samples, (self.acquire_samples or 0) if acquire else 0), steps)
+
+    def _rollouts(self, samples: int, steps: int | None) -> int:
+        """The rollouts of a plan drawing ``samples`` (cut to ``step_budget`` at ``steps``): ``iterations x
+        (samples + extra_rollouts)`` x the robust ensemble's models; 0 for a planner without rollouts."""
         if not self.needs_rollouts:
             return 0
-        samples = max(self.num_samples, (self.acquire_samples or 0) if acquire else 0)
         per_iteration = self._budgeted(samples, steps) + self.extra_rollouts
         return self.iterations * per_iteration * (len(self._models) if self._models else 1)
 
