@@ -2620,7 +2620,10 @@ def loop_figure(path: Path, bars: list[tuple[str, str, int, int, int]]) -> None:
         ax.set_xticks(range(len(mine)), [b[1].replace(", ", ",\n") for b in mine], fontsize=7)
         ax.set_ylim(0, 1.12)
     axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
-    fig.suptitle("the method in each loop on the same seeds; clean/completed/trials", fontsize=8)
+    fig.suptitle(
+        "the method in each loop; clean/completed/trials (the fixed latency's on every seed a loop ran)",
+        fontsize=8,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
