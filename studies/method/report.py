@@ -2443,6 +2443,13 @@ def loop_threads(r: dict) -> int | None:
     return (planner.get("latency_model") or {}).get("threads")
 
 
+def tally(records: list[dict]) -> tuple[int, int]:
+    """``(completed, finished cleanly)``: how many of ``records`` did each."""
+    return sum(bool(r.get("completed")) for r in records), sum(
+        bool(r.get("finished_cleanly")) for r in records
+    )
+
+
 def loop_section(study, df: pd.DataFrame) -> str:
     """Simulated trials in MuJoCo MPC's loop on a machine of N threads (``loop=per_plan``,
     ``loop/<run>/trial.json``, made by ``run_loop.sh``): per task and thread count, completed / finished
@@ -2485,31 +2492,23 @@ def loop_section(study, df: pd.DataFrame) -> str:
         base = base[base["seed"].isin(seed_list)] if len(base) else base
         lats = sorted({float(v) for r in group for v in (r.get("plan_latencies") or {})})
         land = f"{1e3 * lats[-1]:.0f} / {1e3 * lats[0]:.0f}" if lats else "—"
-        done = sum(bool(r.get("completed")) for r in group)
-        clean = sum(bool(r.get("finished_cleanly")) for r in group)
+        done, clean = tally(group)
         fixed, p = "—", None
         if len(base):
-            fixed = f"{of(int(base['completed'].sum()), len(base))} / {int(base['finished_cleanly'].sum())}"
-            p = completion_test(done, len(group), int(base["completed"].sum()), len(base))[0]
+            base_done = int(base["completed"].sum())
+            fixed = f"{of(base_done, len(base))} / {int(base['finished_cleanly'].sum())}"
+            p = completion_test(done, len(group), base_done, len(base))[0]
         live = [r for r in runs if r.get("task") == task and (method_name(r) or METHOD) == method]
-        online_cell = "—"
-        if threads == 2 and live:
-            online_cell = (
-                f"{of(sum(bool(r.get('completed')) for r in live), len(live))} / "
-                f"{sum(bool(r.get('finished_cleanly')) for r in live)}"
-            )
+        live = live if threads == 2 else []  # the online runs plan on this machine's 2 threads
+        online_cell = f"{of(tally(live)[0], len(live))} / {tally(live)[1]}" if live else "—"
         if not any(b[0] == name for b in bars) and len(base):  # the fixed latency's once a task
             base_all = cell(ok, name, method)
             base_all = base_all[base_all["seed"].isin({r["seed"] for r in records if r["task"] == task})]
             count = (int(base_all["completed"].sum()), int(base_all["finished_cleanly"].sum()))
             bars.append((name, f"fixed {calibrated:.0f} ms", len(base_all), *count))
         bars.append((name, f"{threads} threads", len(group), done, clean))
-        if threads == 2 and live:
-            count = (
-                sum(bool(r.get("completed")) for r in live),
-                sum(bool(r.get("finished_cleanly")) for r in live),
-            )
-            bars.append((name, "online, 2 threads", len(live), *count))
+        if live:
+            bars.append((name, "online, 2 threads", len(live), *tally(live)))
         rows.append(
             f"| {name} | `{method}` | {threads} | {land} | {seeds(seed_list)} | {of(done, len(group))} "
             f"| {clean} | {median([r.get('ttf') for r in group], '{:.2f}')} "
@@ -2581,7 +2580,7 @@ def measured_prices(study, threads: list[int]) -> str:
         grasp, later = (float(costs[(f"paper_{task}", state)]) for state in ("approach", "contact"))
         at = ", ".join(f"{1e3 * grasp / n:.0f} / {1e3 * later / n:.0f} ms on {n}" for n in threads)
         parts.append(f"{task} {at}")
-        dearer += grasp > 128 * 250 * step
+        dearer += grasp > price(1, 128)
         fixed_costs += later > grasp / 4
     if not parts:
         return ""
