@@ -58,6 +58,7 @@ LABELS = (
     "grip",
     "retarget",
     "rollout",
+    "reuse",
     "preset",
     "experiment",
     "perturbation",

@@ -88,6 +88,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "grip": None,
     "retarget": None,
     "rollout": None,
+    "reuse": None,
     "hand": None,
     "cost": None,
     "sampler": None,

@@ -1,18 +1,19 @@
 """Method labels and config keys across versions: one map that resuming and the analysis both read.
 
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
-``robust``; or a named combination such as ``wrist_clearance``) with eleven independent groups on top:
+``robust``; or a named combination such as ``wrist_clearance``) with twelve independent groups on top:
 ``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance``), ``release``
 (``none | reset | open | scheduled | flat | backoff | eased``), ``compensation`` (``none | predict``),
 ``effort`` (``uniform | acquire | acquire_half | acquire_short``), ``place`` (``none | wrist``), ``pacing``
 (``none | hold | release``), ``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze |
-carried | touched``), ``retarget`` (``none | wrist``) and ``rollout`` (``paper | fine``).
+carried | touched``), ``retarget`` (``none | wrist``), ``rollout`` (``paper | fine``) and ``reuse``
+(``none | elites``).
 Records made before the groups existed name the combination by one variant label (``variant:
 release_flat``); records made before the release schedule was one object store its options as flat sampler
 keys (``sampler.release_pause``); records made before a group existed read as its default.
 
 - :func:`method_labels` reads a record's labels, old or new, as ``{variant, wrist, shaping, release,
-  compensation, effort, place, pacing, carry, grip, retarget, rollout}``;
+  compensation, effort, place, pacing, carry, grip, retarget, rollout, reuse}``;
 - :func:`method_name` names the method of those labels, the same name for an old record and a new
   one of the same combination (the old variant's name where it had one: ``wrist_acquire``), by which
   the analysis groups trials;
@@ -40,6 +41,7 @@ GROUPS: dict[str, str] = {
     "grip": "none",
     "retarget": "none",
     "rollout": "paper",
+    "reuse": "none",
 }
 """The method's groups on top of the variant, each with its default member (the paper's method)."""
 

@@ -1133,3 +1133,77 @@ def test_wrist_carry_composes_a_span_and_no_window(tmp_path, late_contact_refere
     sampler = record["config"]["sampler"]
     assert record["status"] == "ok" and sampler["root_span"] == [-1.0, 0.0] and sampler["root_window"] is None
     assert sampler["root_sigma2"] == 1.0e-4
+
+
+def _evaluated(planner) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each of ``planner``'s evaluations as it plans: the control-point sets and their total costs."""
+    seen = []
+    real = planner.evaluate
+
+    def evaluate(state, t, thetas):
+        out = real(state, t, thetas)
+        seen.append((thetas.copy(), out[0].copy()))
+        return out
+
+    planner.evaluate = evaluate
+    return seen
+
+
+def test_reuse_carries_the_last_plans_runners_up_into_the_next_plan():
+    """planner.reuse: the first plan is reuse=0's bit for bit (nothing is kept yet); the next plan's last
+    rows are the last plan's cheapest finite candidates other than the committed one, each as its
+    difference from the committed points added to the new nominal where both windows meet (the nominal
+    elsewhere), its other rows reuse=0's draws; the same rollouts a plan."""
+    problem = PointMassProblem(sigma=0.4)
+    on = PredictiveSampling(num_samples=12, horizon=0.5, reuse=3)
+    off = PredictiveSampling(num_samples=12, horizon=0.5)
+    problem.bind(on)
+    problem.bind(off)
+    seen_on, seen_off = _evaluated(on), _evaluated(off)
+    on.plan(0.0, problem.state, np.random.default_rng(1))
+    off.plan(0.0, problem.state, np.random.default_rng(1))
+    np.testing.assert_array_equal(on.theta, off.theta)
+    thetas, total = seen_on[0]
+    committed = on.theta.copy()
+    order = [i for i in np.argsort(total, kind="stable") if not np.array_equal(thetas[i], committed)][:3]
+    assert len(order) == 3 and np.isfinite(total[order]).all()
+    # the same window and nominal: the runners-up themselves come back, the fresh draws are reuse=0's
+    on.plan(0.0, problem.state, np.random.default_rng(2))
+    off.plan(0.0, problem.state, np.random.default_rng(2))
+    again, again_off = seen_on[1][0], seen_off[1][0]
+    np.testing.assert_allclose(again[-3:], thetas[order], rtol=0, atol=1e-12)  # (nominal + difference)
+    np.testing.assert_array_equal(again[:-3], again_off[:-3])
+    assert on.plan(0.0, problem.state, np.random.default_rng(3)).best_cost <= seen_on[2][1][0]
+    # a later window: the kept differences on the control points both windows cover, the nominal elsewhere
+    old_window = problem.spline.window_indices(0.0, 0.5)
+    kept_window, differences = on._kept
+    np.testing.assert_array_equal(kept_window, old_window)
+    nominal = on.theta.copy()
+    on.plan(0.4, problem.state, np.random.default_rng(4))
+    window = problem.spline.window_indices(0.4, 0.5)
+    late = seen_on[3][0][-3:, window]
+    shared = np.isin(window, old_window)
+    assert 0 < shared.sum() < len(window)
+    expected = np.broadcast_to(nominal[window], late.shape).copy()
+    expected[:, shared] += differences[:, np.isin(old_window, window)]
+    np.testing.assert_allclose(late, expected, rtol=0, atol=1e-12)
+    assert on.rollouts_per_plan() == off.rollouts_per_plan() == 12
+    problem.engine.close()
+
+
+def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
+    """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit."""
+    overrides = [
+        "task=apple",
+        f"task.reference_path={late_contact_reference[1]}",
+        *TINY,
+        "job.progress=false",
+    ]
+    base = run_job(overrides, tmp_path / "off")
+    record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
+    assert record["status"] == "ok" and record["config"]["planner"]["reuse"] == 8
+    zero = run_job(overrides + ["reuse=elites", "planner.reuse=0"], tmp_path / "zero")
+    a, b = np.load(base.parent / "timeseries.npz"), np.load(zero.parent / "timeseries.npz")
+    for key in a.files:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)

@@ -204,6 +204,13 @@ class Planner:
             ``carry_hold`` seconds (the signal that starts the wrist's carry, ``carry_gain``, which it
             needs). From that plan on a switched planner goes back to the scene's planning model, once, and
             one that has not switched yet never does. False: not on the grasp.
+        reuse: carry the last plan's runners-up into the next plan (iCEM's kept elites, Pinneri et al.
+            2020; not the paper's): the next plan's first iteration replaces this many of its fresh
+            samples (the last rows; row 0 stays the nominal) by the last plan's cheapest finite
+            candidates other than the one it committed, each as its difference from the committed control
+            points added to the nominal on the control points both windows cover (the nominal elsewhere),
+            so a reset or a carry shift of the nominal since is kept. The same rollouts a plan, so the
+            latency model charges nothing more. 0 (the paper): every sample fresh.
     """
 
     needs_rollouts = True
@@ -248,6 +255,7 @@ class Planner:
         switch_count: Annotated[int, Ge(1)] = 2,
         switch_back_after: float | None = None,
         switch_back_held: bool = False,
+        reuse: Annotated[int, Ge(0)] = 0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -347,6 +355,9 @@ class Planner:
         self.switched_back_at: float | None = None  # (switch_back_after) ... of the first plan back
         # (switch_back_after, switch_back_held) when to go back (inf: only on the hold), and the problem
         self._back: tuple[float, Problem] | None = None
+        self.reuse = int(reuse)
+        # (reuse) the last plan's runners-up: its window and their differences from what it committed
+        self._kept: tuple[np.ndarray, np.ndarray] | None = None
 
     # --- the two methods a planner implements ------------------------------------------------
     def sample(self, rng: np.random.Generator, nominal: np.ndarray, window: np.ndarray) -> np.ndarray:
@@ -727,6 +738,8 @@ class Planner:
         window = self.problem.spline.window_indices(t, self._horizon_now)
         self._noise_scale = self.noise_scale(t, window, iteration)
         candidates = self.sample(rng, self.theta[window], window)
+        if iteration == 0 and self._kept is not None:
+            self.reused(candidates, window)
         thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
         thetas[:, window] = candidates
         return window, candidates, thetas
@@ -861,6 +874,8 @@ class Planner:
             if self.early_stop and not guided and improvement(float(total[0]), best_cost) < self.early_stop:
                 break
         self._iteration = 0
+        if self.reuse:
+            self.keep(window, candidates, total)
         return PlanInfo(
             time=t,
             window=window,
@@ -872,6 +887,32 @@ class Planner:
             iterations=i + 1,
             samples=len(candidates),
         )
+
+    def keep(self, window: np.ndarray, candidates: np.ndarray, total: np.ndarray) -> None:
+        """Keep the ``reuse`` cheapest finite of a plan's last ``candidates`` (S, Mw, d) scored ``total``
+        (S,) other than the committed control points, as their differences from them (:meth:`reused`)."""
+        committed = self.theta[window]
+        order = [i for i in np.argsort(total, kind="stable") if np.isfinite(total[i])]
+        order = [i for i in order if not np.array_equal(candidates[i], committed)][: self.reuse]
+        self._kept = (window.copy(), candidates[order] - committed[None]) if order else None
+
+    def reused(self, candidates: np.ndarray, window: np.ndarray) -> int:
+        """Put the last plan's kept runners-up (:meth:`keep`) in the last rows of a plan's fresh
+        ``candidates`` (S, Mw, d) over ``window``, in place: each the nominal plus its kept difference on the
+        control points both windows cover. Row 0, the nominal, stays.
+
+        Returns:
+            how many rows were replaced.
+        """
+        kept_window, differences = self._kept
+        count = min(len(differences), len(candidates) - 1)
+        if count <= 0:
+            return 0
+        _, here, there = np.intersect1d(window, kept_window, assume_unique=True, return_indices=True)
+        rows = np.broadcast_to(self.theta[window], (count,) + candidates.shape[1:]).copy()
+        rows[:, here] += differences[:count][:, there]
+        candidates[len(candidates) - count :] = rows
+        return count
 
     def commit(self, scored: Scored) -> tuple[np.ndarray, float, dict[str, float]]:
         """What an iteration commits from its scored candidates (:class:`Scored`; its ``state`` and
