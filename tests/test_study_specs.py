@@ -208,6 +208,12 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
               "plan_latencies": lat, "config": {"planner": planner}, "cpu": "A"})  # fmt: skip
     other = {"task": "paper_stapler", "seed": 3, "completed": True, "config": {"planner": {}}}
     write("loop", "fixed", other)  # another loop: left out
+    for seed, clean in ((0, True), (1, False)):  # a lever on the method in the 2-thread loop
+        planner = {"latency_per_plan": True, "latency_model": {"threads": 2}}
+        write("loop", f"lever{seed}", {"task": "paper_stapler", "seed": seed, "variant": spec.METHOD,
+              "reuse": "elites", "completed": True, "finished_cleanly": clean, "cpu": "A",
+              "cpu_seconds": 300.0, "plan_latencies": {"0.593": 5, "0.148": 60},
+              "config": {"planner": planner}})  # fmt: skip
     for seed, done, held in ((0, True, None), (1, False, None), (2, True, 0.17)):
         run = {"task": "paper_stapler", "seed": seed, "slowdown": 1.0, "completed": done,
                "finished_cleanly": False, "apply_after": held}  # fmt: skip
@@ -235,7 +241,10 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
         "- stapler, 2 threads: completed only here on no seed; only at the fixed 170 ms on seed 0 " + apart
         in text
     )
-    assert "The trials ran on A (4)." in text
+    assert "The trials ran on A (6)." in text
+    lever = "| stapler | `reuse=elites` | 2 | 593 / 148 | 0 and 1 | 2 of 2 | 1 | 1 of 2 / 1 | "
+    assert lever in text and text.split(lever)[1].split("\n")[0].endswith("| seed 0 | seed 1 | 300 |")
+    assert f"`{spec.METHOD}+reuse=elites`" not in text  # not a row of the method's own table
     assert "No such trial" in spec.loop_section(SimpleNamespace(dir=tmp_path / "none", draw=None), base)
 
 

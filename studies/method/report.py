@@ -2480,7 +2480,8 @@ def loop_section(study, df: pd.DataFrame) -> str:
     ]
     key = lambda r: (r.get("task", ""), method_name(r) or METHOD, loop_threads(r))  # noqa: E731
     rank = {t: i for i, t in enumerate(TASK_ORDER)}
-    conditions = sorted({key(r) for r in records}, key=lambda k: (rank.get(k[0][6:], 99), k[1], -k[2]))
+    everything = sorted({key(r) for r in records}, key=lambda k: (rank.get(k[0][6:], 99), k[1], -k[2]))
+    conditions = [k for k in everything if k[1] == METHOD]  # levers on it: their own table (loop_levers)
     machines = pd.Series([str(r.get("cpu") or "unknown CPU") for r in records]).value_counts()
     head += "The trials ran on " + Fmt.listing([f"{m} ({n})" for m, n in machines.items()]) + ".\n\n"
     rows, lines, bars = [], [], []
@@ -2546,6 +2547,8 @@ def loop_section(study, df: pd.DataFrame) -> str:
         "cores; their grasp plans take longer than the model's 2 threads price (*Online, in wall-clock "
         "time*: their measured medians).\n"
     )
+    levers, lever_bars = loop_levers(records, [k for k in everything if k[1] != METHOD], key)
+    bars += lever_bars
     measured = measured_prices(study, sorted({k[2] for k in conditions}))
     link = study.draw(
         "loop.png",
@@ -2558,9 +2561,70 @@ def loop_section(study, df: pd.DataFrame) -> str:
         + pipe_table(cols, "lllllrrrrlrl", rows)
         + note
         + ("\n" + "\n".join(lines) + "\n" if lines else "")
+        + (f"\n{levers}" if levers else "")
         + (f"\n{link}\n" if link else "")
         + (f"\n{measured}\n" if measured else "")
     )
+
+
+def loop_levers(records: list[dict], conditions: list[tuple], key) -> tuple[str, list[tuple]]:
+    """Levers on the method in the per-plan loop (``run_loop.sh`` with ``EXTRA``): per task, lever and
+    thread count, completed / finished cleanly beside the method's own trials in the same loop on the same
+    seeds (Barnard's test on each; seed by seed where both ran on one processor). Returns the table (empty
+    without such trials) and the figure's bars, ``(task, label, trials, completed, clean)``."""
+    if not conditions:
+        return "", []
+    rows, bars, lines = [], [], []
+    for task, method, threads in conditions:
+        group = sorted((r for r in records if key(r) == (task, method, threads)), key=lambda r: r["seed"])
+        seed_list = {r["seed"] for r in group}
+        base = {r["seed"]: r for r in records if key(r) == (task, METHOD, threads) and r["seed"] in seed_list}
+        name, lever = task.removeprefix("paper_"), method.removeprefix(f"{METHOD}+")
+        lats = sorted({float(v) for r in group for v in (r.get("plan_latencies") or {})})
+        land = f"{1e3 * lats[-1]:.0f} / {1e3 * lats[0]:.0f}" if lats else "—"
+        done, clean = tally(group)
+        base_done, base_clean = tally(list(base.values()))
+        p_done = completion_test(done, len(group), base_done, len(base))[0] if base else None
+        p_clean = completion_test(clean, len(group), base_clean, len(base))[0] if base else None
+        same = [r for r in group if r["seed"] in base and base[r["seed"]].get("cpu") == r.get("cpu")]
+        gained = [
+            r["seed"]
+            for r in same
+            if r.get("finished_cleanly") and not base[r["seed"]].get("finished_cleanly")
+        ]
+        lost = [
+            r["seed"]
+            for r in same
+            if not r.get("finished_cleanly") and base[r["seed"]].get("finished_cleanly")
+        ]
+        method_cell = f"{of(base_done, len(base))} / {base_clean}" if base else "—"
+        tests = [Fmt.p(p) if p is not None else "—" for p in (p_done, p_clean)]
+        rows.append(
+            f"| {name} | `{lever}` | {threads} | {land} | {seeds(sorted(seed_list))} "
+            f"| {of(done, len(group))} | {clean} | {method_cell} | {tests[0]} | {tests[1]} "
+            f"| {_seeds(gained) if gained else 'none'} | {_seeds(lost) if lost else 'none'} "
+            f"| {median([r.get('cpu_seconds') for r in group])} |"
+        )
+        if len(same) < len(group):
+            lines.append(
+                f"- {name} `{lever}`, {threads} threads: {len(group) - len(same)} of {len(group)} trials "
+                "have no trial of the method on their seed on the same processor: for those only the counts "
+                "compare."
+            )
+        bars.append((name, f"{threads} threads, {lever}", len(group), done, clean))
+    cols = (
+        "task", "lever", "threads", "plans land after (ms): grasp / later", "seeds", "completed",
+        "finished cleanly", "the method in this loop, same seeds: completed / clean", "Barnard p (completed)",
+        "Barnard p (clean)", "clean only with the lever", "clean only without", "median CPU-s",
+    )  # fmt: skip
+    head = (
+        "**Levers on the method in this loop** (`run_loop.sh` with `EXTRA` overrides and a `TAG`), each "
+        "against the method's own trials in the same loop, on the same machine of N threads and the same "
+        "seeds:\n\n"
+    )
+    return head + pipe_table(cols, "llllllrlrrllr", rows) + (
+        "\n" + "\n".join(lines) + "\n" if lines else ""
+    ), bars
 
 
 def measured_prices(study, threads: list[int]) -> str:
@@ -2606,7 +2670,9 @@ def loop_figure(path: Path, bars: list[tuple[str, str, int, int, int]]) -> None:
     tasks = list(dict.fromkeys(b[0] for b in bars))
     loops = list(dict.fromkeys(b[1] for b in bars))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    fig, axes = plt.subplots(1, len(tasks), figsize=(3.4 * len(tasks), 3.8), squeeze=False, sharey=True)
+    most = max(sum(b[0] == t for b in bars) for t in tasks)
+    width = max(3.4, 0.75 * most)
+    fig, axes = plt.subplots(1, len(tasks), figsize=(width * len(tasks), 3.8), squeeze=False, sharey=True)
     for ax, task in zip(axes[0], tasks, strict=True):
         mine = [b for b in bars if b[0] == task]
         for i, (_, loop, n, done, clean) in enumerate(mine):
@@ -2620,7 +2686,8 @@ def loop_figure(path: Path, bars: list[tuple[str, str, int, int, int]]) -> None:
         ax.set_ylim(0, 1.12)
     axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
     fig.suptitle(
-        "the method in each loop; clean/completed/trials (the fixed latency's on every seed a loop ran)",
+        "the method (and levers on it) in each loop; clean/completed/trials (the fixed latency's on every "
+        "seed a loop ran)",
         fontsize=8,
     )
     fig.tight_layout()
