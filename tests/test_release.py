@@ -677,3 +677,19 @@ def test_the_release_direction_points_from_the_expected_contacts_to_the_palm(sce
     shift = (end @ problem.release_theta - end @ plain.theta0)[0]
     np.testing.assert_allclose(shift[:3], 0.05 * direction, atol=2e-3)
     np.testing.assert_allclose(shift[3:6], 0.0, atol=2e-3)
+
+
+def test_plan_latencies_count_the_plans_a_trial_ran_not_its_whole_schedule():
+    """With planner.latency_per_plan the record's plan_latencies count the schedule's plans up to the last
+    logged one: a trial cut short (diverged) lists only the plans it made, as many as its log's rows."""
+    series, trial = _trial_and_series(release=2.5, knocked=False)
+    step = 0.001
+    trial.scene.plant_model = SimpleNamespace(opt=SimpleNamespace(timestep=step))
+    trial.planner.latency_per_plan = True
+    every = int(round(DT / step))  # a plan each logged row, 150 ms until 1 s, 50 ms after
+    trial.schedule = lambda: [(k, 150 if k < 1000 else 50, every) for k in range(0, 4000 + 1, every)]
+    whole = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["plan_latencies"]
+    assert whole == {"0.050": len(series["time"]) - 20, "0.150": 20}
+    cut = {k: v[:30] for k, v in series.items()}  # the log of a trial that stopped at 1.45 s
+    short = summarize(cut, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["plan_latencies"]
+    assert short == {"0.050": 10, "0.150": 20} and sum(short.values()) == len(cut["time"])

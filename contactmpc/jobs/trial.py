@@ -202,8 +202,10 @@ def summarize(
             switch["switch_back_time"] = trial.planner.switched_back_at
     per_plan = {}
     if trial.planner.latency_per_plan:  # each plan its own latency: which ones, and how many of each
-        lags, counts = np.unique([lag for _, lag, _ in trial.schedule()], return_counts=True)
         dt = trial.scene.plant_model.opt.timestep
+        last = series["time"][-1] if len(series["time"]) else -np.inf  # the plans it ran (not a diverged
+        ran = [lag for k, lag, _ in trial.schedule() if k * dt <= last + 0.5 * dt]  # trial's whole schedule)
+        lags, counts = np.unique(ran, return_counts=True)
         per_plan["plan_latencies"] = {f"{lag * dt:.3f}": int(n) for lag, n in zip(lags, counts, strict=True)}
     names = ("object_position_error", "object_rotation_error", "object_articulation_error")
     windows = errors_by_window(series["time"], {k: series[k] for k in names}, ttf.span)
