@@ -37,6 +37,15 @@ def _paper_plan(planner, problem, t, rng):
     return out
 
 
+def assert_same_series(first, second) -> None:
+    """The time series of two trials (their records' paths) are alike bit for bit, but for the plans'
+    wall times; ``second`` may log more."""
+    a, b = (np.load(p.parent / "timeseries.npz") for p in (first, second))
+    for key in a.files:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
 def test_levers_off_plan_as_before_bit_for_bit():
     problem = PointMassProblem(sigma=0.4)
     off = PredictiveSampling(
@@ -155,10 +164,7 @@ def test_a_trial_started_late_runs_and_off_is_the_whole_trial(tmp_path, late_con
     overrides += ["job.progress=false", "duration=0.6"]
     base = run_job(overrides, tmp_path / "base")
     same = run_job(overrides + ["job.start_time=0"], tmp_path / "zero")
-    a, b = (np.load(p.parent / "timeseries.npz") for p in (base, same))
-    for key in a.files:
-        if key != "plan_seconds":
-            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    assert_same_series(base, same)
     late = run_job(overrides + ["job.start_time=0.3"], tmp_path / "late")
     record = json.loads(late.read_text())
     assert record["status"] == "ok" and record["start_time"] == 0.3
@@ -1051,10 +1057,7 @@ def test_a_gripped_trial_runs_and_no_squeeze_is_the_trial_of_before(tmp_path, la
     grip = record["config"]["planner"]["grip"]
     assert record["status"] == "ok" and grip["squeeze"] == 0.1 and grip["during"] == "carried"
     zero = run_job(overrides + ["grip=squeeze", "planner.grip.squeeze=0"], tmp_path / "zero")
-    a, b = np.load(base.parent / "timeseries.npz"), np.load(zero.parent / "timeseries.npz")
-    for key in a.files:
-        if key != "plan_seconds":
-            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    assert_same_series(base, zero)
 
 
 def test_grip_touched_squeezes_a_finger_only_from_the_plan_that_finds_it_touching(scene_for):
@@ -1203,7 +1206,4 @@ def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, lat
     record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
     assert record["status"] == "ok" and record["config"]["planner"]["reuse"] == 8
     zero = run_job(overrides + ["reuse=elites", "planner.reuse=0"], tmp_path / "zero")
-    a, b = np.load(base.parent / "timeseries.npz"), np.load(zero.parent / "timeseries.npz")
-    for key in a.files:
-        if key != "plan_seconds":
-            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    assert_same_series(base, zero)
