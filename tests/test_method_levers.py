@@ -46,6 +46,11 @@ def assert_same_series(first, second) -> None:
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
 
 
+def late_apple(late_contact_reference) -> list[str]:
+    """The overrides of a tiny apple trial on the reference whose first contact comes late."""
+    return ["task=apple", f"task.reference_path={late_contact_reference[1]}", *TINY, "job.progress=false"]
+
+
 def test_levers_off_plan_as_before_bit_for_bit():
     problem = PointMassProblem(sigma=0.4)
     off = PredictiveSampling(
@@ -176,12 +181,7 @@ def test_a_trial_started_late_runs_and_off_is_the_whole_trial(tmp_path, late_con
 
 
 def test_start_and_end_relative_to_the_first_contact(tmp_path, late_contact_reference):
-    overrides = [
-        "task=apple",
-        f"task.reference_path={late_contact_reference[1]}",
-        *TINY,
-        "job.progress=false",
-    ]
+    overrides = late_apple(late_contact_reference)
     record = json.loads(
         run_job(
             overrides + ["job.start_before_contact=0.1", "job.end_after_contact=0.1"], tmp_path
@@ -669,12 +669,7 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
     clock falls behind only after the first expected contact, by at most the budget, the trial runs the
     budget longer, and the log reads the reference at the reference's time. With no budget it never waits:
     the trial of pacing=none, bit for bit."""
-    overrides = [
-        "task=apple",
-        f"task.reference_path={late_contact_reference[1]}",
-        *TINY,
-        "job.progress=false",
-    ]
+    overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     paced = run_job(
         overrides + ["pacing=hold", "planner.pace_lag=0.01", "planner.pace_budget=0.3"], tmp_path / "on"
@@ -1046,12 +1041,7 @@ def test_grip_refuses_a_hand_whose_fingers_have_no_contact_links_and_contacts_ov
 
 def test_a_gripped_trial_runs_and_no_squeeze_is_the_trial_of_before(tmp_path, late_contact_reference):
     """grip=squeeze composes (its record says so); at squeeze 0 the trial is grip=none's bit for bit."""
-    overrides = [
-        "task=apple",
-        f"task.reference_path={late_contact_reference[1]}",
-        *TINY,
-        "job.progress=false",
-    ]
+    overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     record = json.loads(run_job(overrides + ["grip=carried"], tmp_path / "on").read_text())
     grip = record["config"]["planner"]["grip"]
@@ -1196,12 +1186,7 @@ def test_reuse_carries_the_last_plans_runners_up_into_the_next_plan():
 
 def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
     """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit."""
-    overrides = [
-        "task=apple",
-        f"task.reference_path={late_contact_reference[1]}",
-        *TINY,
-        "job.progress=false",
-    ]
+    overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
     assert record["status"] == "ok" and record["config"]["planner"]["reuse"] == 8
