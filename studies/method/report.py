@@ -2671,9 +2671,11 @@ def loop_figure(path: Path, bars: list[tuple[str, str, int, int, int]]) -> None:
     tasks = list(dict.fromkeys(b[0] for b in bars))
     loops = list(dict.fromkeys(b[1] for b in bars))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    most = max(sum(b[0] == t for b in bars) for t in tasks)
-    width = max(3.4, 0.75 * most)
-    fig, axes = plt.subplots(1, len(tasks), figsize=(width * len(tasks), 3.8), squeeze=False, sharey=True)
+    count = [max(3, sum(b[0] == t for b in bars)) for t in tasks]  # bars a task, a panel as wide as they
+    fig, axes = plt.subplots(
+        1, len(tasks), figsize=(1.15 * sum(count), 4.2), squeeze=False, sharey=True,
+        gridspec_kw={"width_ratios": count},
+    )  # fmt: skip
     for ax, task in zip(axes[0], tasks, strict=True):
         mine = [b for b in bars if b[0] == task]
         for i, (_, loop, n, done, clean) in enumerate(mine):
@@ -2683,7 +2685,8 @@ def loop_figure(path: Path, bars: list[tuple[str, str, int, int, int]]) -> None:
             ax.text(i, done / n + 0.02, f"{clean}/{done}/{n}", ha="center", fontsize=7)
         ax.axhline(TARGET_CLEAN / TARGET_SEEDS, color="k", lw=0.8, ls="--")
         ax.set_title(task)
-        ax.set_xticks(range(len(mine)), [b[1].replace(", ", ",\n") for b in mine], fontsize=7)
+        labels = [b[1].replace(", ", ",\n").replace("+", "\n+") for b in mine]
+        ax.set_xticks(range(len(mine)), labels, fontsize=7)
         ax.set_ylim(0, 1.12)
     axes[0][0].set_ylabel("finished cleanly (solid), completed (pale)")
     fig.suptitle(
