@@ -896,23 +896,18 @@ class Planner:
         order = [i for i in order if not np.array_equal(candidates[i], committed)][: self.reuse]
         self._kept = (window.copy(), candidates[order] - committed[None]) if order else None
 
-    def reused(self, candidates: np.ndarray, window: np.ndarray) -> int:
+    def reused(self, candidates: np.ndarray, window: np.ndarray) -> None:
         """Put the last plan's kept runners-up (:meth:`keep`) in the last rows of a plan's fresh
         ``candidates`` (S, Mw, d) over ``window``, in place: each the nominal plus its kept difference on the
-        control points both windows cover. Row 0, the nominal, stays.
-
-        Returns:
-            how many rows were replaced.
-        """
+        control points both windows cover. Row 0, the nominal, stays."""
         kept_window, differences = self._kept
         count = min(len(differences), len(candidates) - 1)
         if count <= 0:
-            return 0
+            return
         _, here, there = np.intersect1d(window, kept_window, assume_unique=True, return_indices=True)
         rows = np.broadcast_to(self.theta[window], (count,) + candidates.shape[1:]).copy()
         rows[:, here] += differences[:count][:, there]
         candidates[len(candidates) - count :] = rows
-        return count
 
     def commit(self, scored: Scored) -> tuple[np.ndarray, float, dict[str, float]]:
         """What an iteration commits from its scored candidates (:class:`Scored`; its ``state`` and
