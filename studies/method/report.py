@@ -2519,11 +2519,11 @@ def loop_section(study, df: pd.DataFrame) -> str:
         )
         if len(base):  # seed by seed only where both ran on one processor (else another draw)
             cpus = base["cpu"] if "cpu" in base else pd.Series([None] * len(base), index=base.index)
-            was = {sd: (c, cpu) for sd, c, cpu in zip(base["seed"], base["completed"], cpus, strict=True)}
-            same = [r for r in group if r["seed"] in was and was[r["seed"]][1] == r.get("cpu")]
-            gained = [r["seed"] for r in same if r.get("completed") and not was[r["seed"]][0]]
-            lost = [r["seed"] for r in same if not r.get("completed") and was[r["seed"]][0]]
-            apart = len(group) - len(same)
+            was = {
+                sd: {"completed": bool(c), "cpu": cpu}
+                for sd, c, cpu in zip(base["seed"], base["completed"], cpus, strict=True)
+            }
+            gained, lost, apart = seeds_apart(group, was, "completed")
             if gained or lost or apart:
                 lines.append(
                     f"- {name}, {threads} threads: completed only here on "
@@ -2568,6 +2568,17 @@ def loop_section(study, df: pd.DataFrame) -> str:
     )
 
 
+def seeds_apart(group: list[dict], base: dict[int, dict], field: str) -> tuple[list, list, int]:
+    """Seed by seed, ``group``'s trials against ``base`` (a record, or its ``field`` and ``cpu``, by
+    seed) where both ran on one processor (on another, the same seed is another draw): the seeds on which
+    ``field`` holds only in ``group``, only in ``base``, and how many of ``group``'s trials have no such
+    counterpart."""
+    same = [r for r in group if r["seed"] in base and base[r["seed"]].get("cpu") == r.get("cpu")]
+    gained = [r["seed"] for r in same if r.get(field) and not base[r["seed"]].get(field)]
+    lost = [r["seed"] for r in same if not r.get(field) and base[r["seed"]].get(field)]
+    return gained, lost, len(group) - len(same)
+
+
 def loop_levers(records: list[dict], conditions: list[tuple], key) -> tuple[str, list[tuple]]:
     """Levers on the method in the per-plan loop (``run_loop.sh`` with ``EXTRA``): per task, lever and
     thread count, completed / finished cleanly beside the method's own trials in the same loop on the same
@@ -2587,17 +2598,7 @@ def loop_levers(records: list[dict], conditions: list[tuple], key) -> tuple[str,
         base_done, base_clean = tally(list(base.values()))
         p_done = completion_test(done, len(group), base_done, len(base))[0] if base else None
         p_clean = completion_test(clean, len(group), base_clean, len(base))[0] if base else None
-        same = [r for r in group if r["seed"] in base and base[r["seed"]].get("cpu") == r.get("cpu")]
-        gained = [
-            r["seed"]
-            for r in same
-            if r.get("finished_cleanly") and not base[r["seed"]].get("finished_cleanly")
-        ]
-        lost = [
-            r["seed"]
-            for r in same
-            if not r.get("finished_cleanly") and base[r["seed"]].get("finished_cleanly")
-        ]
+        gained, lost, apart = seeds_apart(group, base, "finished_cleanly")
         method_cell = f"{of(base_done, len(base))} / {base_clean}" if base else "—"
         tests = [Fmt.p(p) if p is not None else "—" for p in (p_done, p_clean)]
         rows.append(
@@ -2606,9 +2607,9 @@ def loop_levers(records: list[dict], conditions: list[tuple], key) -> tuple[str,
             f"| {_seeds(gained) if gained else 'none'} | {_seeds(lost) if lost else 'none'} "
             f"| {median([r.get('cpu_seconds') for r in group])} |"
         )
-        if len(same) < len(group):
+        if apart:
             lines.append(
-                f"- {name} `{lever}`, {threads} threads: {len(group) - len(same)} of {len(group)} trials "
+                f"- {name} `{lever}`, {threads} threads: {apart} of {len(group)} trials "
                 "have no trial of the method on their seed on the same processor: for those only the counts "
                 "compare."
             )
