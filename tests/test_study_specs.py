@@ -578,6 +578,40 @@ def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen
     assert spec.heldout(None, chosen).endswith("No such trial is kept yet.\n")
 
 
+def test_the_method_study_sets_a_method_with_held_out_trials_against_its_own_on_every_seed_both_have() -> (
+    None
+):
+    """against_method: another method with held-out trials, per task on the seeds both have (the sweep's and
+    the held-out ones) and over those tasks, beside the method's; a task where it has no held-out trial is
+    left out, and so is a method without any; nothing at all without such trials."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    other = spec.ORDER[spec.ORDER.index(spec.METHOD) + 1]
+
+    def trials(task, variant, seeds, clean):
+        return pd.DataFrame({"task": task, "variant": variant, "seed": list(seeds), "counted": True,
+                             "completed": True, "finished_cleanly": clean})  # fmt: skip
+
+    sweep = pd.concat([
+        trials("stapler", spec.METHOD, range(10), [True] * 9 + [False]),
+        trials("stapler", other, range(10), [True] * 5 + [False] * 5),
+        trials("apple", spec.METHOD, range(10), [True] * 10),
+        trials("apple", other, range(10), [True] * 10),
+    ])  # fmt: skip
+    held = pd.concat([
+        trials("stapler", spec.METHOD, range(10, 20), [True] * 10),
+        trials("stapler", other, range(10, 15), [False] * 5),  # seeds 15-19: the method's alone
+    ])  # fmt: skip
+    text = spec.against_method(sweep, held, [spec.METHOD, other])
+    assert f"| `{other}` | stapler | 0-14 | 15 of 15 | 5 of 15 | 15 of 15 | 14 of 15 |" in text
+    assert "| apple |" not in text  # no held-out trial of the other method on the apple
+    assert f"- `{other}` over those tasks: completed 15 of 15 against 15 of 15" in text
+    assert "finished cleanly 5 of 15 against 14 of 15 (Barnard p = 0.00" in text
+    assert spec.against_method(sweep, held, [spec.METHOD]) == ""
+    assert spec.against_method(sweep, held.iloc[:0], [spec.METHOD, other]) == ""
+
+
 def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(monkeypatch, tmp_path) -> None:
     """levers_section: a lever is named by its run folder's overrides (not the experiment, seed or task), and
     per task its counts stand beside the method's on the seeds the lever has, with the seeds only one of

@@ -715,7 +715,60 @@ def heldout(study, chosen: pd.DataFrame) -> str:
                     )
     cols = ("method", "task", "held-out seeds", "completed", "finished cleanly",
             "on the sweep's seeds: completed", "finished cleanly")  # fmt: skip
-    return head + pipe_table(cols, "lllrrrr", rows) + "\n" + ";\n".join(lines) + (".\n" if lines else "")
+    return (
+        head
+        + pipe_table(cols, "lllrrrr", rows)
+        + "\n"
+        + ";\n".join(lines)
+        + (".\n" if lines else "")
+        + against_method(base, ok, methods)
+    )
+
+
+def against_method(sweep: pd.DataFrame, held: pd.DataFrame, methods: list[str]) -> str:
+    """Each of ``methods`` but :data:`METHOD`, per task where it has held-out trials (``held``), against
+    :data:`METHOD` on every seed both have, the sweep's (``sweep``) and the held-out ones; and over those
+    tasks: completed and finished cleanly, with Barnard's test on each. Empty without such trials."""
+    trials = pd.concat([sweep, held]) if len(held) else sweep
+    rows, pooled = [], []
+    for method in (m for m in methods if m != METHOD):
+        sums = np.zeros(4, int)
+        n = 0
+        for task in plan()[0]:
+            mine, theirs = cell(trials, task, method), cell(trials, task, METHOD)
+            both = sorted(set(mine["seed"]) & set(theirs["seed"]))
+            if not len(held) or not cell(held, task, method)["seed"].isin(both).any():
+                continue
+            a, b = (g[g["seed"].isin(both)].drop_duplicates("seed") for g in (mine, theirs))
+            n_both = len(both)
+            counts = [int(g[col].sum()) for g in (a, b) for col in ("completed", "finished_cleanly")]
+            p_done, p_clean = (completion_test(counts[i], n_both, counts[i + 2], n_both)[0] for i in (0, 1))
+            rows.append(
+                f"| `{method}` | {task} | {seeds(both)} | "
+                + " | ".join(of(k, n_both) for k in counts)
+                + f" | {Fmt.p(p_done)} | {Fmt.p(p_clean)} |"
+            )
+            sums += counts
+            n += n_both
+        if n:
+            p_done, p_clean = (completion_test(sums[i], n, sums[i + 2], n)[0] for i in (0, 1))
+            pooled.append(
+                f"- `{method}` over those tasks: completed {of(sums[0], n)} against {of(sums[2], n)} "
+                f"(Barnard p = {Fmt.p(p_done)}), finished cleanly {of(sums[1], n)} against "
+                f"{of(sums[3], n)} (Barnard p = {Fmt.p(p_clean)})."
+            )
+    if not rows:
+        return ""
+    cols = ("method", "task", "seeds", "completed", "finished cleanly", f"`{METHOD}`: completed",
+            "finished cleanly", "Barnard p (completed)", "Barnard p (clean)")  # fmt: skip
+    return (
+        f"\n**Against `{METHOD}` on every seed both have** (the sweep's and the held-out ones; "
+        f"`{METHOD}`'s stand-ins counted in), per task where the other method has held-out trials:\n\n"
+        + pipe_table(cols, "lllrrrrrr", rows)
+        + "\n"
+        + "\n".join(pooled)
+        + "\n"
+    )
 
 
 LEVERS = "levers"
