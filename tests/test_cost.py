@@ -150,6 +150,51 @@ def test_surface_and_clearance_terms_match_geom_distance(scene_for, task):
     assert clear_pairs > 0 and clear.max() > 0.0  # some link not yet expected within the margin
 
 
+def test_clearance_links_hold_every_link_off_until_the_reference_has_that_many(scene_for):
+    """``clearance_links=k``: the clearance term keeps a link off until the reference first expects k links
+    at once, or until the link's own first expected contact if later; 0 (the default) is each link's own
+    first expected contact, bit for bit; a k the reference never reaches keeps every link off throughout."""
+    scene = scene_for("stapler", "scene.link_distance_cutoff=0.05")
+    m = scene.planner_model
+    ref = static_reference(scene, active_links=21)
+    ref.contact_active[:] = False
+    n = len(ref.contact_active)
+    a, b = n // 4, n // 2
+    ref.contact_active[a:, 0] = True  # one link from a quarter in
+    ref.contact_active[b:, 1:4] = True  # four at once from halfway
+    ref.contact_active[3 * n // 4 :, 4] = True  # a fifth later still
+    track = ReferenceTrack.build(ref, scene.task.layout, scene.task.time_scale, m.opt.timestep, 1.0)
+    data = scene.make_data(m)
+    x0 = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, data, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    rng = np.random.default_rng(7)
+    H = len(track.contact_active) - 1
+    ctrl = scene.task.hand_home + rng.normal(0, 0.3, (2, H, m.nu))
+    with RolloutEngine(m, nthread=1) as engine:
+        _, sensordata, _ = engine.run(x0, ctrl)
+    window = track.window(0.0, H)
+
+    def clearance(**kw):
+        cost = TrackingCost(clearance_weight=1.0, clearance=0.5, **kw)  # 50 cm: every link inside it
+        cost.bind(scene, track)
+        return cost.clearance_term(sensordata, window), cost._before_first
+
+    own, own_first = clearance()
+    np.testing.assert_array_equal(own, clearance(clearance_links=0)[0])
+    held, held_first = clearance(clearance_links=4)
+    grid = track.contact_active
+    start = int(np.argmax(grid.sum(axis=1) >= 4))  # where the track first has four links
+    mine = np.argmax(grid, axis=0)
+    assert 0 < mine[0] < start < mine[4]
+    np.testing.assert_array_equal(held_first[:, 0], np.arange(len(grid)) < start)  # held until four
+    np.testing.assert_array_equal(held_first[:, 1:], own_first[:, 1:])  # the others: their own first
+    rows = slice(mine[0] - window.start, start - window.start)
+    assert (held[:, rows] > own[:, rows]).all()  # link 0 still kept off there
+    np.testing.assert_array_equal(held[:, start - window.start :], own[:, start - window.start :])
+    never, never_first = clearance(clearance_links=6)
+    assert never_first.all() and (never >= held).all()
+
+
 def test_surface_term_needs_the_distance_sensors(scene_for):
     """Without ``scene.link_distance_cutoff`` the scene has no distance sensors (the model is the
     default one), and a cost with a surface term refuses it, naming the option."""

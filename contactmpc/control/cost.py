@@ -105,6 +105,12 @@ class TrackingCost:
             (m^2) by which a link comes within ``clearance`` of the object before the reference first
             expects that link's contact (the same sensors). 0: the paper.
         clearance: the margin (m) of the clearance term.
+        clearance_links: the clearance term holds every link off the object at least until the reference
+            first expects this many links in contact at once (each link's own first expected contact,
+            if later), so a grasp that the reference forms over time with one finger first (the
+            stapler's index alone for 0.3 s) starts once it has that many (a count it never reaches
+            keeps every link off throughout); 0 (the default): each link until its own first expected
+            contact. Not the paper's.
 
     The authors' weights (``task_template.xml``: object position 1000, orientation 10, contact 5000,
     hand velocity 1, each ``0.5 w |r|^2``) are ``lambda_o = 500``, ``rotation_weight = 0.01``,
@@ -128,9 +134,11 @@ class TrackingCost:
         surface_weight: Annotated[float, Ge(0)] = 0.0,
         clearance_weight: Annotated[float, Ge(0)] = 0.0,
         clearance: Annotated[float, Ge(0)] = 0.01,
+        clearance_links: Annotated[int, Ge(0)] = 0,
     ) -> None:
         self.clearance_weight = float(clearance_weight)
         self.clearance = float(clearance)
+        self.clearance_links = int(clearance_links)
         self.release_weight = float(release_weight)
         self.surface_weight = float(surface_weight)
         self.lambda_o = float(lambda_o)
@@ -171,6 +179,9 @@ class TrackingCost:
         self._found = scene.index.hand_object_contact
         n = len(track.contact_active)
         first = np.where(track.contact_active.any(axis=0), track.contact_active.argmax(axis=0), n)  # (L,)
+        if self.clearance_links > 0:  # no link before the reference's grasp has that many links
+            enough = track.contact_active.sum(axis=1) >= self.clearance_links
+            first = np.maximum(first, int(enough.argmax()) if enough.any() else n)
         self._before_first = np.arange(n)[:, None] < first[None, :]  # (N, L) link not yet expected
         if self.contact_subset == "authors_code":
             links = None if reference is None else reference.meta.get("paper_code_contacts")

@@ -448,6 +448,7 @@ METHOD_LEVER_KEYS = (
     ("planner.pace_rate", 0.0, "rate"),
     ("retarget", "none", "retarget="),
     ("scene.planner_timestep", 0.01, "dt"),
+    ("cost.clearance_links", 0, "links"),
 )
 
 #: What each lever on top of the method is, by its name's key (:data:`METHOD_LEVER_KEYS`' short names).
@@ -473,6 +474,10 @@ METHOD_LEVER_TEXT = {
     "stapler lags (`planner.pace_rate=0.3`: the lift slowed, not stopped)",
     "dt": "`dt0.005`: the planning model stepped at 5 ms instead of 10 (`scene.planner_timestep=0.005`: "
     "twice the steps a rollout, so about twice the CPU-s a plan; the plant's 1 ms unchanged)",
+    "links": "`links5`: the clearance term holds every link off the object until the reference first "
+    "expects 5 links in contact at once (`cost.clearance_links=5`; the method: each link until its own first "
+    "expected contact), so the stapler's index, which the reference has alone on it for its first 0.3 s, "
+    "does not touch it before the grasp has five links",
     "retarget=": "`retarget=wrist`: the reference's grasp corrected by one wrist translation (the "
     "offset of the wrist's slides that best puts the links the reference expects in contact on the object's "
     "surface, eased in over 1 s before the first expected contact; the retargeted grasp passes the "
@@ -627,7 +632,8 @@ def method_levers_section(levers: pd.DataFrame, method: pd.DataFrame) -> str:
         "before the apple is handed off, so no apple screen trial completes: `lifted` is its measure); "
         "`SET=retarget TASKS=paper_apple`: `retarget=wrist` on the apple's screen, against the method's "
         "trials of `SET=method_lift`; `SET=planner_dt TASKS=paper_apple`: `dt0.005` on the apple's screen, "
-        "against the same. "
+        "against the same; `SET=clearance_links` (`TASKS=paper_stapler`, then `paper_apple`): `links5` on "
+        "both screens. "
         + "; ".join(text for short, text in METHOD_LEVER_TEXT.items() if short in shown)
         + ".\n\n"
         + table(both, [METHOD, *(f"{METHOD} {n}" for n in by)])

@@ -129,6 +129,14 @@ LEVERS=(
   "variant=grasp_release_ahead_acquire scene.planner_timestep=0.005"
 )
 at_method_point
+# SET=clearance_links: the clearance term holding every link off until the reference first expects 5 links at
+# once (cost.clearance_links=5; the method: each link until its own first expected contact), against the method's
+# own screen trials (SET=method; TASKS=paper_apple: SET=method_lift's)
+elif [[ ${SET:-full} == clearance_links ]]; then
+LEVERS=(
+  "variant=grasp_release_ahead_acquire cost.clearance_links=5"
+)
+at_method_point
 else
 LEVERS=(
   "variant=full"
