@@ -783,6 +783,40 @@ def test_the_method_study_reads_the_replayed_lifts_per_task_and_planning_model()
     assert spec.lift_replays(df.iloc[0:0]) == ""
 
 
+def test_the_method_study_bins_the_trials_by_when_the_hand_first_touched_the_object() -> None:
+    """first_touches: per task, of the trials with the clearance term, lifted / completed / clean and the
+    median displacement per bin of the first touch (s after the first expected contact), the doorknob's
+    completion standing in for a lift; those touching within 0.2 s against those touching later, with
+    Barnard's test; trials without the clearance term or without a touch left out; nothing without rows."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    #              first touch, lifted, completed, clean, displaced
+    stapler = [(-0.17, False, False, False, 3.0), (0.0, False, False, False, 2.0),
+               (0.17, True, True, False, 1.0), (0.34, True, True, True, 0.5),
+               (0.51, True, True, True, 0.7), (1.0, True, False, False, 0.2)]  # fmt: skip
+    rows = [{"task": "paper_stapler", "shaping": "clearance", "first_touch": t, "lifted": lifted,
+             "completed": done, "finished_cleanly": clean, "displaced_mm": mm}
+            for t, lifted, done, clean, mm in stapler]  # fmt: skip
+    rows += [{"task": "paper_doorknob", "shaping": "clearance", "first_touch": 0.9, "lifted": None,
+              "completed": True, "finished_cleanly": False, "displaced_mm": 0.0},
+             {"task": "paper_stapler", "shaping": "none", "first_touch": 0.0, "lifted": True,
+              "completed": True, "finished_cleanly": True, "displaced_mm": 0.0},
+             {"task": "paper_stapler", "shaping": "clearance", "first_touch": None, "lifted": False,
+              "completed": False, "finished_cleanly": False, "displaced_mm": 0.0}]  # fmt: skip
+    text = spec.first_touches(pd.DataFrame(rows))
+    assert "| stapler | 0 / 0 / 0 of 1; 3.0 mm | 1 / 1 / 0 of 2; 1.5 mm | 2 / 2 / 2 of 2; 0.6 mm " in text
+    assert "| 1 / 0 / 0 of 1; 0.2 mm |" in text  # 0.7 s or more after
+    assert "| doorknob | — | — | — | 1 / 1 / 0 of 1; 0.0 mm |" in text  # completion as its lift
+    assert text.index("| doorknob |") < text.index("| stapler |")  # the study's task order
+    assert (
+        "- stapler: first touching before or within 0.2 s of the expected contact, 1 of 3 completed; " in text
+    )
+    assert "later, 2 of 3 (Barnard p = " in text
+    assert "7 trials of every method" in text  # the clearance term's, with a touch
+    assert spec.first_touches(pd.DataFrame(rows).iloc[-2:]) == ""
+
+
 def test_the_method_study_sets_each_planning_model_s_plan_against_the_paper_point_s_at_the_same_state() -> (
     None
 ):

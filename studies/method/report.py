@@ -2235,6 +2235,67 @@ def settles(rows: pd.DataFrame) -> str:
     return "".join(out)
 
 
+FIRST_TOUCHES = "first_touch.csv"
+#: The bins of the first touch (s after the reference's first expected contact) and their names.
+TOUCH_BINS = (-np.inf, -0.01, 0.2, 0.7, np.inf)
+TOUCH_NAMES = ("before it", "0-0.2 s after", "0.2-0.7 s after", "0.7 s or more after")
+
+
+def first_touches(rows: pd.DataFrame) -> str:
+    """When the hand first touched the object (:data:`FIRST_TOUCHES`' rows: ``task``, ``shaping``,
+    ``first_touch`` (s after the reference's first expected contact), ``displaced_mm``, ``lifted``,
+    ``completed``, ``finished_cleanly``; ``studies/method/first_touch.py``): per task, of the trials with the
+    clearance term, the trials, those that lifted the object, completed and finished cleanly per bin of the
+    first touch; and per task, the trials first touching within 0.2 s of the expected contact against those
+    touching later (Barnard's test on completion)."""
+    rows = rows[(rows["shaping"] == "clearance") & rows["first_touch"].notna()].copy()
+    if not len(rows):
+        return ""
+    rows["bin"] = pd.cut(rows["first_touch"], TOUCH_BINS, labels=TOUCH_NAMES)
+    out = [
+        "Every kept trial of this study with the clearance term whose time series is on this machine "
+        f"(`python studies/method/first_touch.py`; {len(rows)} trials of every method, latency and loop, "
+        "the sweep's, held-out, levers' and loop trials): when the hand first touched the object, against "
+        "when the reference first expects it to (`contact_span_start`; the series are logged once a plan, "
+        "so the instants are a plan's interval apart), and the object's displacement from where it started "
+        "0.5 s after that expected contact (median). Each cell: lifted / completed / finished cleanly, of "
+        "the trials (the doorknob has no lift: completed twice).\n\n"
+        "| task | " + " | ".join(f"first touch {n}" for n in TOUCH_NAMES) + " |\n"
+        "|---|" + "--:|" * len(TOUCH_NAMES) + "\n"
+    ]
+    lines = []
+    for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        mine = rows[rows["task"] == task]
+        cells = []
+        for name in TOUCH_NAMES:
+            g = mine[mine["bin"] == name]
+            if not len(g):
+                cells.append("—")
+                continue
+            lifted = g["lifted"] if g["lifted"].notna().any() else g["completed"]
+            counts = " / ".join(str(int(x.fillna(False).astype(bool).sum())) for x in
+                                (lifted, g["completed"], g["finished_cleanly"]))  # fmt: skip
+            cells.append(f"{counts} of {len(g)}; {g['displaced_mm'].median():.1f} mm")
+        out.append(f"| {task.removeprefix('paper_')} | " + " | ".join(cells) + " |\n")
+        soon = mine["bin"].isin(TOUCH_NAMES[:2])
+        a, b = mine[soon], mine[~soon]
+        if len(a) and len(b):
+            ka, kb = int(a["completed"].astype(bool).sum()), int(b["completed"].astype(bool).sum())
+            p = completion_test(ka, len(a), kb, len(b))[0]
+            lines.append(
+                f"- {task.removeprefix('paper_')}: first touching before or within 0.2 s of the expected "
+                f"contact, {of(ka, len(a))} completed; later, {of(kb, len(b))} (Barnard p = {Fmt.p(p)})."
+            )
+    return (
+        "".join(out)
+        + "\n"
+        + "\n".join(lines)
+        + "\n\nThese are associations over trials of many configurations, not a lever's effect: the "
+        "method screen's `links5` (`cost.clearance_links=5`, every link held off until the reference "
+        "expects five links at once) tests holding the hand off on the same seeds.\n"
+    )
+
+
 def shortfall(df: pd.DataFrame, study=None) -> str:
     """Per task, why ``METHOD``'s trials that did not finish cleanly did not: those not completed (the
     milestones they missed, when the failure rule fired) and those completed but not settled (the object
@@ -2966,6 +3027,13 @@ def report(study) -> str:
             PLAN_COSTS,
             plan_costs,
             "Not benchmarked yet (`python studies/method/plan_benchmark.py`).\n",
+        )
+        + "\n## When the hand first touches the object\n\n"
+        + from_figures(
+            study,
+            FIRST_TOUCHES,
+            first_touches,
+            "Not measured yet (`python studies/method/first_touch.py`).\n",
         )
         + "\n## Where the object rests before the hand arrives\n\n"
         + from_figures(study, SETTLES, settles, "Not run yet (`python studies/method/settle.py`).\n")
