@@ -2,10 +2,10 @@
 
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
 ``robust``; or a named combination such as ``wrist_clearance``) with twelve independent groups on top:
-``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance``), ``release``
-(``none | reset | open | scheduled | flat | backoff | eased``), ``compensation`` (``none | predict``),
-``effort`` (``uniform | acquire | acquire_half | acquire_short``), ``place`` (``none | wrist``), ``pacing``
-(``none | hold | release``), ``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze |
+``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance |
+clearance_grasp``), ``release`` (``none | reset | open | scheduled | flat | backoff | eased``),
+``compensation`` (``none | predict``), ``effort`` (``uniform | acquire | acquire_half | acquire_short``),
+``place`` (``none | wrist``), ``pacing`` (``none | hold | release``), ``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze |
 carried | touched``), ``retarget`` (``none | wrist``), ``rollout`` (``paper | fine``) and ``reuse``
 (``none | elites``).
 Records made before the groups existed name the combination by one variant label (``variant:
