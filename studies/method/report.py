@@ -2292,7 +2292,53 @@ def first_touches(rows: pd.DataFrame) -> str:
         + "\n".join(lines)
         + "\n\nThese are associations over trials of many configurations, not a lever's effect: the "
         "method screen's `links5` (`cost.clearance_links=5`, every link held off until the reference "
-        "expects five links at once) tests holding the hand off on the same seeds.\n"
+        "expects five links at once) tests holding the hand off on the same seeds.\n" + links_screen()
+    )
+
+
+def links_screen() -> str:
+    """What the method screen's ``links5`` (``cost.clearance_links=5`` on top of its method) did against
+    that method's own screen trials on the same seeds, per task: lifted, and the lever's median first touch
+    (s after the first expected contact); empty without such trials."""
+    from analysis.study import Study
+
+    screen = Study("method_screen")
+    df = screen.records()
+    if "cost.clearance_links" not in df or not len(df):
+        return ""
+    at = planned_latency() or math.nan  # the calibrated latency, plans that often
+    calibrated = ((df["latency"] - at).abs() < 1e-6) & ((df["replan_interval"] - at).abs() < 1e-6)
+    df = df[(df["variant"] == screen.spec.METHOD) & calibrated]
+    if "planner.approach_reset" in df:
+        df = df[df["planner.approach_reset"].isna()]
+    df = df.assign(lever=[screen.spec.method_lever(r) for r in df.to_dict("records")])
+    parts = []
+    for task in ordered(df["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        mine, base = (df[(df["task"] == task) & (df["lever"] == x)] for x in ("links5", ""))
+        both = sorted(set(mine["seed"]) & set(base["seed"]))
+        if not both:
+            continue
+        a, b = (g[g["seed"].isin(both)].drop_duplicates("seed") for g in (mine, base))
+        ka, kb = (int(g["milestone_lifted"].fillna(False).astype(bool).sum()) for g in (a, b))
+        touch = (
+            (a["first_contact_time"] - a["contact_span_start"]).dropna() if "first_contact_time" in a else []
+        )
+        when = (
+            f", its first touch a median {touch.median():.2f} s after the expected contact"
+            if len(touch)
+            else ""
+        )
+        p = completion_test(ka, len(both), kb, len(both))[0]
+        parts.append(
+            f"{task.removeprefix('paper_')} (seeds {seeds(both)}): lifted {of(ka, len(both))} against "
+            f"{of(kb, len(both))} (Barnard p = {Fmt.p(p)}){when}"
+        )
+    if not parts:
+        return ""
+    return (
+        f"\nIn the screen (`{screen.spec.METHOD}` at {1e3 * at:.0f} ms, with `links5` against without): "
+        + "; ".join(parts)
+        + " (the method screen's report, *Levers on top of the method*).\n"
     )
 
 
