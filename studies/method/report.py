@@ -2292,7 +2292,7 @@ def first_touches(rows: pd.DataFrame) -> str:
         + "\n".join(lines)
         + "\n\nThese are associations over trials of many configurations, not a lever's effect: the "
         "method screen's `links5` (`cost.clearance_links=5`, every link held off until the reference "
-        "expects five links at once) tests holding the hand off on the same seeds.\n" + links_screen()
+        "expects five links at once) tests holding the hand off on the same seeds.\n"
     )
 
 
@@ -3081,6 +3081,7 @@ def report(study) -> str:
             first_touches,
             "Not measured yet (`python studies/method/first_touch.py`).\n",
         )
+        + links_screen()
         + "\n## Where the object rests before the hand arrives\n\n"
         + from_figures(study, SETTLES, settles, "Not run yet (`python studies/method/settle.py`).\n")
         + "\n## What holds the carried object\n\n"
