@@ -4,6 +4,8 @@
 * :func:`render_reference_filmstrip`: a 1 x N strip of reference frames with their expected contacts (PNG).
 * :func:`render_trial_video`: a logged trial with expected and actual contacts (GIF, or MP4 with
   ``imageio-ffmpeg``).
+* :func:`render_trial_frames`: a logged trial at chosen instants above the reference at the same instants
+  (PNG), from the kept series alone (``python -m analysis.frames``).
 
 Expected contacts are drawn as small spheres (link point green, object point red, joined by a thin
 line); links actually touching the object are tinted orange. Text is drawn with Pillow (a matplotlib
@@ -374,6 +376,73 @@ def render_trial_video(
     path.parent.mkdir(parents=True, exist_ok=True)
     writer(path, np.stack(frames), fps)
     return path
+
+
+def render_trial_frames(
+    scene: Scene,
+    series: Mapping[str, np.ndarray],
+    track_or_reference: ReferenceTrack | Reference,
+    path: str | Path,
+    times: Sequence[float],
+    size: tuple[int, int] = (240, 320),
+    zoom: float = 1.0,
+    reference: bool = True,
+) -> Path:
+    """Render a logged trial at control ``times`` as one PNG: a row of the plant as logged (the last
+    logged step at or before each time, touching links tinted, the expected contacts of that time drawn)
+    above a row of the reference at the same times (its hand and expected object pose, its contacts).
+
+    Args:
+        scene: the trial's scene.
+        series: the trial's log arrays: ``time`` (N,), ``qpos`` (N, nq), optionally ``contacts`` (N, L).
+        track_or_reference: the trial's :class:`ReferenceTrack`, or its :class:`Reference`.
+        path: the PNG to write (parent folders are created).
+        times: control times (s) of the panels; each is shown at the logged step it holds.
+        size: (height, width) of one panel in pixels.
+        zoom: the task camera's distance times this, looking at the object's first body as each panel
+            (of either row) has it; 1: the task's view as it is.
+        reference: add the reference's row.
+
+    Returns:
+        The path written; the image is (R*H + 4*(R-1), N*W + 4*(N-1), 3) for R rows and N times.
+    """
+    track = _as_track(scene, track_or_reference)
+    time, qpos = np.asarray(series["time"], float), np.asarray(series["qpos"], float)
+    touching = series.get("contacts")
+    m, data, cam = scene.plant_model, mujoco.MjData(scene.plant_model), task_camera(scene)
+    cam.distance *= zoom
+    body = int(scene.index.object_bodies[0]) if len(scene.index.object_bodies) else -1
+    renderer = mujoco.Renderer(m, *size)
+    rows: list[list[np.ndarray]] = [[], []]
+    try:
+        for t in times:
+            k = max(0, int(np.searchsorted(time, t + 1e-9, side="right")) - 1)
+            i = track.index(time[k])
+            f = max(0, int(np.searchsorted(track.hand_times, time[k] + 1e-9, side="right")) - 1)
+            plant = (qpos[k], None if touching is None else np.asarray(touching[k], bool), "")
+            kept = qpos[k].copy()  # the reference's hand and object in the plant's configuration
+            kept[scene.index.hand_qpos] = track.hand_qpos[f]
+            kept[scene.index.object_qpos] = track.object_qpos[i]
+            shown = [plant] + ([(kept, None, "reference, ")] if reference else [])
+            for row, (q, links, name) in zip(rows, shown, strict=False):
+                data.qpos[:] = q
+                mujoco.mj_forward(m, data)
+                if zoom != 1.0 and body >= 0:
+                    cam.lookat[:] = data.xpos[body]
+                renderer.update_scene(data, cam)
+                if links is not None:
+                    tint_links(renderer.scene, scene, links)
+                draw_expected_contacts(
+                    renderer.scene, scene, data, track.contact_active[i], track.contact_link_point[i],
+                    track.contact_object_point[i], track.contact_object_body[i],
+                )  # fmt: skip
+                row.append(label(renderer.render().copy(), [f"{name}t = {time[k]:.2f} s"]))
+    finally:
+        renderer.close()
+    gap = np.full((size[0], 4, 3), 255, np.uint8)
+    strips = [np.concatenate([x for p in row for x in (gap, p)][1:], axis=1) for row in rows if row]
+    sep = np.full((4, strips[0].shape[1], 3), 255, np.uint8)
+    return write_png(np.concatenate([x for s_ in strips for x in (sep, s_)][1:], axis=0), path)
 
 
 def _video_writer(path: Path):

@@ -82,5 +82,17 @@ def scene_for() -> Callable[..., object]:
 
 
 @pytest.fixture(scope="session")
+def reference_files(tmp_path_factory) -> dict[str, str]:
+    """A short static reference .npz per synthetic task, for its ``task.reference_path``."""
+    from tests.helpers import static_reference
+
+    root = tmp_path_factory.mktemp("refs")
+    return {
+        task: str(static_reference(build_scene((f"task={task}",)), duration=0.2, frames=6).save(root / task))
+        for task in TASKS
+    }
+
+
+@pytest.fixture(scope="session")
 def repo_root() -> Path:
     return REPO_ROOT

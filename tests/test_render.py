@@ -14,6 +14,7 @@ from contactmpc.render import (
     draw_expected_contacts,
     filmstrip_frames,
     render_reference_filmstrip,
+    render_trial_frames,
     render_trial_video,
     task_camera,
     video_times,
@@ -105,3 +106,19 @@ def test_trial_video_rejects_unknown_formats(apple, tmp_path):
     if importlib.util.find_spec("imageio_ffmpeg") is None:
         with pytest.raises(RuntimeError, match="imageio-ffmpeg"):
             render_trial_video(scene, _series(scene, 2), ref, tmp_path / "trial.mp4")
+
+
+def test_trial_frames_put_the_plant_above_the_reference(apple, tmp_path):
+    """One panel per instant, the plant's row above the reference's (without ``reference``: the plant's
+    alone); an instant between logged steps shows the step it holds."""
+    scene, ref = apple
+    series = _series(scene)
+    path = render_trial_frames(scene, series, ref, tmp_path / "f.png", [0.0, 0.35, 0.9], size=SIZE)
+    img = iio.imread(path)
+    assert img.shape == (2 * SIZE[0] + 4, 3 * SIZE[1] + 2 * 4, 3)
+    plant, reference = img[: SIZE[0]].astype(int), img[SIZE[0] + 4 :].astype(int)
+    assert np.abs(plant - reference).max() > 0  # the fingers flexed in the plant, not in the reference
+    held = render_trial_frames(scene, series, ref, tmp_path / "g.png", [0.3], size=SIZE, reference=False)
+    again = render_trial_frames(scene, series, ref, tmp_path / "h.png", [0.35], size=SIZE, reference=False)
+    assert iio.imread(held).shape == (SIZE[0], SIZE[1], 3)
+    np.testing.assert_array_equal(iio.imread(held)[20:], iio.imread(again)[20:])  # 0.35 s holds 0.3's step

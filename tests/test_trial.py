@@ -23,17 +23,6 @@ PLANNERS = ("predictive_sampling", "mppi", "cem", "replay")
 TINY = ["planner.num_samples=10", "planner.horizon=0.1", "planner.replan_period=0.05", "planner.nthread=1"]
 
 
-@pytest.fixture(scope="session")
-def reference_files(tmp_path_factory):
-    """A short static reference .npz per task, used through the task's ``reference_path``."""
-    root = tmp_path_factory.mktemp("refs")
-    out = {}
-    for task in TASKS:
-        ref = static_reference(build_scene((f"task={task}",)), duration=0.2, frames=6)
-        out[task] = str(ref.save(root / f"{task}.npz"))
-    return out
-
-
 def run_job(overrides, out_dir):
     """Compose, instantiate and call the job exactly as launch.py does (without Hydra's runtime)."""
     cfg = compose_config(overrides)

@@ -32,8 +32,7 @@ from contactmpc.labels import (
     upgrade_config,
 )
 from contactmpc.runs import config_differences
-from tests.conftest import CONF_DIR, TASKS, build_scene, compose_config
-from tests.helpers import static_reference
+from tests.conftest import CONF_DIR, build_scene, compose_config
 
 OLD = json.loads((Path(__file__).parent / "data" / "old_variants.json").read_text())["variants"]
 
@@ -176,16 +175,6 @@ def test_method_names_group_old_and_new_records_alike():
 
 
 # ------------------------------------------------------------------------- one planning step each
-
-
-@pytest.fixture(scope="module")
-def reference_files(tmp_path_factory):
-    """A short static reference .npz per synthetic task (``task.reference_path``)."""
-    root = tmp_path_factory.mktemp("refs")
-    return {
-        task: str(static_reference(build_scene((f"task={task}",)), duration=0.2, frames=6).save(root / task))
-        for task in TASKS
-    }
 
 
 def _plans_once(overrides: list[str], name: str, reference_files: dict, tmp_path: Path) -> None:
