@@ -67,6 +67,7 @@ HERE = Path(__file__).resolve().parent
 CONF = REPO / "conf"
 #: The methods the study runs, in the tables' order: the project's (the latest first), then the paper's.
 ORDER = (
+    "grasp_held_eased+shaping=clearance_grasp",
     "grasp_held_eased+reuse=elites",
     "grasp_held_eased_refined",
     "grasp_held_eased+rollout=fine_until_held",

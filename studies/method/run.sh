@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The method study's records: grasp_held_eased with reuse=elites, with rollout=fine_on_error
-# (= grasp_held_eased_refined), with rollout=fine_until_held, with place=wrist, with
+# The method study's records: grasp_held_eased with shaping=clearance_grasp, with reuse=elites, with
+# rollout=fine_on_error (= grasp_held_eased_refined), with rollout=fine_until_held, with place=wrist, with
 # rollout=fine_grasp_on_error, with rollout=fine_from_contact, with rollout=fine_after_grasp, with
 # rollout=fine_budget, with rollout=fine, then with retarget=wrist (candidates on top of it),
 # grasp_held_eased, grasp_release_ahead with effort=acquire, grasp_release_ahead, then grasp_release, on the
@@ -14,7 +14,7 @@ set -u
 cd "$(dirname "$0")/../.."
 PY=${PY:-python}
 OUT=${OUT:-studies/method/records}
-for method in ${VARIANTS:-grasp_held_eased+reuse=elites grasp_held_eased+rollout=fine_on_error grasp_held_eased+rollout=fine_until_held grasp_held_eased+place=wrist grasp_held_eased+rollout=fine_grasp_on_error grasp_held_eased+rollout=fine_from_contact grasp_held_eased+rollout=fine_after_grasp grasp_held_eased+rollout=fine_budget grasp_held_eased+rollout=fine grasp_held_eased+retarget=wrist grasp_held_eased grasp_release_ahead+effort=acquire grasp_release_ahead grasp_release full}; do
+for method in ${VARIANTS:-grasp_held_eased+shaping=clearance_grasp grasp_held_eased+reuse=elites grasp_held_eased+rollout=fine_on_error grasp_held_eased+rollout=fine_until_held grasp_held_eased+place=wrist grasp_held_eased+rollout=fine_grasp_on_error grasp_held_eased+rollout=fine_from_contact grasp_held_eased+rollout=fine_after_grasp grasp_held_eased+rollout=fine_budget grasp_held_eased+rollout=fine grasp_held_eased+retarget=wrist grasp_held_eased grasp_release_ahead+effort=acquire grasp_release_ahead grasp_release full}; do
   # a method is a variant, then +group=member for each group on top (grasp_release_ahead+effort=acquire)
   groups=""
   if [[ $method == *+* ]]; then groups=${method#*+}; groups=${groups//+/ }; fi
