@@ -360,22 +360,45 @@ def render_trial_video(
     try:
         for t in video_times(time, fps, speed):
             k = max(0, int(np.searchsorted(time, t + 1e-9, side="right")) - 1)
-            data.qpos[:] = qpos[k]
-            mujoco.mj_forward(m, data)
-            renderer.update_scene(data, cam)
-            if touching is not None:
-                tint_links(renderer.scene, scene, np.asarray(touching[k], bool))
-            i = track.index(time[k])
-            draw_expected_contacts(
-                renderer.scene, scene, data, track.contact_active[i], track.contact_link_point[i],
-                track.contact_object_point[i], track.contact_object_body[i],
-            )  # fmt: skip
-            frames.append(label(renderer.render().copy(), [f"t = {time[k]:.2f} s"]))
+            links = None if touching is None else np.asarray(touching[k], bool)
+            text = f"t = {time[k]:.2f} s"
+            frames.append(
+                _panel(renderer, scene, data, cam, qpos[k], links, track, track.index(time[k]), text)
+            )
     finally:
         renderer.close()
     path.parent.mkdir(parents=True, exist_ok=True)
     writer(path, np.stack(frames), fps)
     return path
+
+
+def _panel(
+    renderer: mujoco.Renderer,
+    scene: Scene,
+    data: mujoco.MjData,
+    camera: mujoco.MjvCamera,
+    qpos: np.ndarray,
+    links: np.ndarray | None,
+    track: ReferenceTrack,
+    i: int,
+    text: str,
+    follow: int = -1,
+) -> np.ndarray:
+    """One labelled frame of the plant at ``qpos``: the ``links`` touching ((L,) bool, or None) tinted,
+    the track's expected contacts of grid step ``i`` drawn; ``follow`` >= 0: the camera looks at that
+    body first."""
+    data.qpos[:] = qpos
+    mujoco.mj_forward(scene.plant_model, data)
+    if follow >= 0:
+        camera.lookat[:] = data.xpos[follow]
+    renderer.update_scene(data, camera)
+    if links is not None:
+        tint_links(renderer.scene, scene, links)
+    draw_expected_contacts(
+        renderer.scene, scene, data, track.contact_active[i], track.contact_link_point[i],
+        track.contact_object_point[i], track.contact_object_body[i],
+    )  # fmt: skip
+    return label(renderer.render().copy(), [text])
 
 
 def render_trial_frames(
@@ -424,19 +447,10 @@ def render_trial_frames(
             kept[scene.index.hand_qpos] = track.hand_qpos[f]
             kept[scene.index.object_qpos] = track.object_qpos[i]
             shown = [plant] + ([(kept, None, "reference, ")] if reference else [])
+            follow = body if zoom != 1.0 else -1
             for row, (q, links, name) in zip(rows, shown, strict=False):
-                data.qpos[:] = q
-                mujoco.mj_forward(m, data)
-                if zoom != 1.0 and body >= 0:
-                    cam.lookat[:] = data.xpos[body]
-                renderer.update_scene(data, cam)
-                if links is not None:
-                    tint_links(renderer.scene, scene, links)
-                draw_expected_contacts(
-                    renderer.scene, scene, data, track.contact_active[i], track.contact_link_point[i],
-                    track.contact_object_point[i], track.contact_object_body[i],
-                )  # fmt: skip
-                row.append(label(renderer.render().copy(), [f"{name}t = {time[k]:.2f} s"]))
+                text = f"{name}t = {time[k]:.2f} s"
+                row.append(_panel(renderer, scene, data, cam, q, links, track, i, text, follow))
     finally:
         renderer.close()
     gap = np.full((size[0], 4, 3), 255, np.uint8)
