@@ -2894,11 +2894,14 @@ def findings(df: pd.DataFrame) -> str:
     )
     others_met = []
     for task in tasks:
+        by = []
         for v in others():
             g = cell(ok, task, v)
             k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
             if n and target(k, c, n).startswith("met"):
-                others_met.append(f"{task} by `{v}` ({k}/{n} completed, {c}/{n} finished cleanly)")
+                by.append(f"`{v}` ({k}/{n} completed, {c}/{n} finished cleanly)")
+        if by:
+            others_met.append(f"{task} by {Fmt.listing(by)}")
     tail = (
         "\n\nThe target is met by another method on: " + "; ".join(others_met) + "."
         if others_met
