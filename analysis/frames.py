@@ -51,9 +51,9 @@ def instants(record: dict, time: np.ndarray, at: list[float] | None = None) -> l
 def scene_and_reference(record: dict, paper_data: str | None = None):
     """The trial's scene and reference, built from the record's config (``paper_data``: the authors'
     ``mjpc/tasks`` for a paper task, else the record's own)."""
-    from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
+    import launch
     from contactmpc.reference.source import get_reference
 
     cfg = OmegaConf.create(record.get("config") or {})
@@ -61,7 +61,7 @@ def scene_and_reference(record: dict, paper_data: str | None = None):
         raise TimelineError("the record has no config to build its scene from")
     if paper_data and "paper_data" in cfg.task:
         cfg.task.paper_data = paper_data
-    scene = instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))
+    scene = launch.build_scene(cfg)
     cache = OmegaConf.select(cfg, "job.reference_cache", default=None)
     return scene, get_reference(scene, cache)
 

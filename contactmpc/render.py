@@ -282,9 +282,22 @@ def render_reference_filmstrip(
             panels.append(label(renderer.render().copy(), text))
     finally:
         renderer.close()
-    gap = np.full((size[0], 4, 3), 255, np.uint8)
-    strip = np.concatenate([x for p in panels for x in (gap, p)][1:], axis=1)
+    strip = _join(panels, axis=1)
     return write_png(strip, path)
+
+
+def _join(images: Sequence[np.ndarray], axis: int, gap: int = 4) -> np.ndarray:
+    """``images`` (each (H, W, 3) uint8) side by side (``axis=1``) or stacked (``axis=0``), ``gap`` white
+    pixels between neighbours."""
+    shape = list(images[0].shape)
+    shape[axis] = gap
+    white = np.full(shape, 255, np.uint8)
+    return np.concatenate([x for img in images for x in (white, img)][1:], axis=axis)
+
+
+def _held(time: np.ndarray, t: float) -> int:
+    """The index of the last of ``time`` (increasing) at or before ``t`` (the first, before them all)."""
+    return max(0, int(np.searchsorted(time, t + 1e-9, side="right")) - 1)
 
 
 def write_png(img: np.ndarray, path: str | Path) -> Path:
@@ -359,7 +372,7 @@ def render_trial_video(
     frames = []
     try:
         for t in video_times(time, fps, speed):
-            k = max(0, int(np.searchsorted(time, t + 1e-9, side="right")) - 1)
+            k = _held(time, t)
             links = None if touching is None else np.asarray(touching[k], bool)
             text = f"t = {time[k]:.2f} s"
             frames.append(
@@ -435,28 +448,24 @@ def render_trial_frames(
     m, data, cam = scene.plant_model, mujoco.MjData(scene.plant_model), task_camera(scene)
     cam.distance *= zoom
     body = int(scene.index.object_bodies[0]) if len(scene.index.object_bodies) else -1
+    follow = body if zoom != 1.0 else -1
     renderer = mujoco.Renderer(m, *size)
     rows: list[list[np.ndarray]] = [[], []]
     try:
         for t in times:
-            k = max(0, int(np.searchsorted(time, t + 1e-9, side="right")) - 1)
-            i = track.index(time[k])
-            f = max(0, int(np.searchsorted(track.hand_times, time[k] + 1e-9, side="right")) - 1)
+            k = _held(time, t)
+            i, f = track.index(time[k]), _held(track.hand_times, time[k])
             plant = (qpos[k], None if touching is None else np.asarray(touching[k], bool), "")
             kept = qpos[k].copy()  # the reference's hand and object in the plant's configuration
             kept[scene.index.hand_qpos] = track.hand_qpos[f]
             kept[scene.index.object_qpos] = track.object_qpos[i]
             shown = [plant] + ([(kept, None, "reference, ")] if reference else [])
-            follow = body if zoom != 1.0 else -1
             for row, (q, links, name) in zip(rows, shown, strict=False):
                 text = f"{name}t = {time[k]:.2f} s"
                 row.append(_panel(renderer, scene, data, cam, q, links, track, i, text, follow))
     finally:
         renderer.close()
-    gap = np.full((size[0], 4, 3), 255, np.uint8)
-    strips = [np.concatenate([x for p in row for x in (gap, p)][1:], axis=1) for row in rows if row]
-    sep = np.full((4, strips[0].shape[1], 3), 255, np.uint8)
-    return write_png(np.concatenate([x for s_ in strips for x in (sep, s_)][1:], axis=0), path)
+    return write_png(_join([_join(row, axis=1) for row in rows if row], axis=0), path)
 
 
 def _video_writer(path: Path):
