@@ -116,7 +116,7 @@ def test_trial_frames_put_the_plant_above_the_reference(apple, tmp_path):
     path = render_trial_frames(scene, series, ref, tmp_path / "f.png", [0.0, 0.35, 0.9], size=SIZE)
     img = iio.imread(path)
     assert img.shape == (2 * SIZE[0] + 4, 3 * SIZE[1] + 2 * 4, 3)
-    plant, reference = img[: SIZE[0]].astype(int), img[SIZE[0] + 4 :].astype(int)
+    plant, reference = img[24 : SIZE[0]].astype(int), img[SIZE[0] + 4 + 24 :].astype(int)  # under the labels
     assert np.abs(plant - reference).max() > 0  # the fingers flexed in the plant, not in the reference
     held = render_trial_frames(scene, series, ref, tmp_path / "g.png", [0.3], size=SIZE, reference=False)
     again = render_trial_frames(scene, series, ref, tmp_path / "h.png", [0.35], size=SIZE, reference=False)
