@@ -209,3 +209,60 @@ def test_surface_term_needs_the_distance_sensors(scene_for):
     TrackingCost().bind(scene, track)  # no surface term: fine
     with pytest.raises(ValueError, match="scene.link_distance_cutoff"):
         TrackingCost(surface_weight=1.0).bind(scene, track)
+
+
+@pytest.mark.parametrize("task", ["apple", "doorknob"])
+def test_rest_term_is_the_objects_speed_after_the_last_expected_contact(scene_for, task):
+    """The rest term against the object's velocity in MjData: the implicit-fast step moves a hinge, a slide
+    or a free body's position by ``dt`` times its new velocity and turns a free body by ``dt |w|``, so the
+    configuration's change between rollout steps over ``dt`` is the speed at the later step. It is priced
+    only after the reference's last expected contact (0 before, and on the window's first row), weighted by
+    ``lambda_o`` times ``rest_weight``; 0 (the default) leaves every other term as it was, bit for bit."""
+    scene = scene_for(task)
+    m = scene.planner_model
+    ref = static_reference(scene, active_links=3)
+    last = len(ref.time) // 2
+    ref.contact_active[last + 1 :] = False  # the reference lets go halfway
+    track = ReferenceTrack.build(ref, scene.task.layout, scene.task.time_scale, m.opt.timestep, 1.0)
+    data = scene.make_data(m)
+    idx = scene.index
+    rng = np.random.default_rng(11)
+    data.qvel[idx.object_dof] = rng.normal(0.0, 0.5, len(idx.object_dof))  # the object set moving
+    x0 = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, data, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    H = len(track.contact_active) - 1
+    ctrl = scene.task.hand_home + rng.normal(0.0, 0.1, (2, H, m.nu))
+    with RolloutEngine(m, nthread=1) as engine:
+        state, sensordata, diverged = engine.run(x0, ctrl)
+    assert not diverged.any()
+    window = track.window(0.0, H)
+    after = np.flatnonzero(~track.contact_active.any(axis=1))
+    first_after = int(after[0]) - window.start
+    assert 2 < first_after < H - 2
+
+    cost = TrackingCost(lambda_o=2.0, rest_weight=3.0, rotation_weight=0.1, articulation_weight=0.5)
+    cost.bind(scene, track)
+    rest = cost.rest_term(sensordata, window)
+    assert (rest[:, :first_after] == 0.0).all()
+    layout = scene.task.layout
+    for s in range(2):
+        for h in range(first_after, H):  # sensordata row h is the state after h steps: state[h - 1]
+            mujoco.mj_setState(m, data, state[s, h - 1], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+            v = data.qvel[idx.object_dof]
+            if layout.free_columns:  # the apple: one free body, its linear then angular dofs
+                assert layout.free_columns == (0,) and not layout.articulation_columns
+                lin, ang, art = float(v[:3] @ v[:3]), float(v[3:6] @ v[3:6]), 0.0
+            else:  # the doorknob: hinges, one dof per column
+                lin, ang, art = 0.0, 0.0, float(v @ v)
+            direct = lin + 0.1 * ang + 0.5 * art
+            assert rest[s, h] == pytest.approx(direct, rel=1e-6, abs=1e-12)  # measured: 4e-13
+    assert rest[:, first_after:].min() > 0.0
+    terms = cost(sensordata, window)
+    np.testing.assert_array_equal(terms["rest"], 2.0 * 3.0 * rest)
+
+    off = TrackingCost(lambda_o=2.0, rotation_weight=0.1, articulation_weight=0.5)
+    off.bind(scene, track)
+    plain = off(sensordata, window)
+    assert (plain["rest"] == 0.0).all()
+    for name in TrackingCost.terms[:-1]:
+        np.testing.assert_array_equal(plain[name], terms[name])

@@ -118,7 +118,7 @@ class TrackingCost:
     residual (``mju_subQuat``) is the rotation vector, so ``|r|^2`` is the squared angle, as ours.
     """
 
-    terms = ("object", "contact", "velocity", "release", "surface", "clearance")
+    terms = ("object", "contact", "velocity", "release", "surface", "clearance", "rest")
 
     @checked
     def __init__(
@@ -135,7 +135,9 @@ class TrackingCost:
         clearance_weight: Annotated[float, Ge(0)] = 0.0,
         clearance: Annotated[float, Ge(0)] = 0.01,
         clearance_links: Annotated[int, Ge(0)] = 0,
+        rest_weight: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
+        self.rest_weight = float(rest_weight)
         self.clearance_weight = float(clearance_weight)
         self.clearance = float(clearance)
         self.clearance_links = int(clearance_links)
@@ -277,6 +279,30 @@ class TrackingCost:
         np.add.at(out.T, h, (np.maximum(self.clearance - d, 0.0) ** 2).T)
         return out
 
+    def rest_term(self, sensordata: np.ndarray, window: slice) -> np.ndarray:
+        """Unweighted rest term: the object's squared configuration speed from the step before to each step
+        after the reference's last expected contact, ``(|dp|^2 + rotation_weight |dr|^2 + articulation_weight
+        |da|^2) / dt^2`` (``dt`` the track's step); 0 on the window's first step, which has none before it
+        in the rollout.
+
+        Args:
+            sensordata: (S, H, nsensordata) with H equal to the window's length.
+            window: grid slice of the reference track.
+
+        Returns:
+            (S, H) rest term.
+        """
+        out = np.zeros(sensordata.shape[:2])
+        after = self._release[window]
+        if sensordata.shape[1] < 2 or not after[1:].any():
+            return out
+        qo = self.object_qpos(sensordata)
+        step = self.scene.task.layout.error(qo[:, 1:], qo[:, :-1])
+        sq = step.position**2 + self.rotation_weight * step.rotation**2
+        sq = sq + self.articulation_weight * step.articulation**2
+        out[:, 1:] = after[None, 1:] * sq / self.track.dt**2
+        return out
+
     def __call__(self, sensordata: np.ndarray, window: slice) -> dict[str, np.ndarray]:
         """Weighted cost terms per sample and step.
 
@@ -286,7 +312,7 @@ class TrackingCost:
 
         Returns:
             dict of the weighted terms ``object``, ``contact``, ``velocity``, ``release``, ``surface``,
-            ``clearance``, each (S, H).
+            ``clearance``, ``rest``, each (S, H).
         """
         tr = self.track
         err = self.scene.task.layout.error(self.object_qpos(sensordata), tr.object_qpos[window])
@@ -305,6 +331,9 @@ class TrackingCost:
         clearance = np.zeros_like(obj)
         if self.clearance_weight > 0.0:
             clearance = self.lambda_c * self.clearance_weight * self.clearance_term(sensordata, window)
+        rest = np.zeros_like(obj)
+        if self.rest_weight > 0.0:
+            rest = self.lambda_o * self.rest_weight * self.rest_term(sensordata, window)
         return {
             "object": self.lambda_o * obj,
             "contact": self.lambda_c * con,
@@ -312,4 +341,5 @@ class TrackingCost:
             "release": release,
             "surface": surface,
             "clearance": clearance,
+            "rest": rest,
         }
