@@ -279,6 +279,12 @@ class TrackingCost:
         np.add.at(out.T, h, (np.maximum(self.clearance - d, 0.0) ** 2).T)
         return out
 
+    def squared(self, err) -> np.ndarray:
+        """An object error (:class:`~contactmpc.tasks.layout.ObjectError`) squared and weighted as the object
+        term weighs it: ``position^2 + rotation_weight rotation^2 + articulation_weight articulation^2``."""
+        sq = err.position**2 + self.rotation_weight * err.rotation**2
+        return sq + self.articulation_weight * err.articulation**2
+
     def rest_term(self, sensordata: np.ndarray, window: slice) -> np.ndarray:
         """Unweighted rest term: the object's squared configuration speed from the step before to each step
         after the reference's last expected contact, ``(|dp|^2 + rotation_weight |dr|^2 + articulation_weight
@@ -298,9 +304,7 @@ class TrackingCost:
             return out
         qo = self.object_qpos(sensordata)
         step = self.scene.task.layout.error(qo[:, 1:], qo[:, :-1])
-        sq = step.position**2 + self.rotation_weight * step.rotation**2
-        sq = sq + self.articulation_weight * step.articulation**2
-        out[:, 1:] = after[None, 1:] * sq / self.track.dt**2
+        out[:, 1:] = after[None, 1:] * self.squared(step) / self.track.dt**2
         return out
 
     def __call__(self, sensordata: np.ndarray, window: slice) -> dict[str, np.ndarray]:
@@ -315,9 +319,7 @@ class TrackingCost:
             ``clearance``, ``rest``, each (S, H).
         """
         tr = self.track
-        err = self.scene.task.layout.error(self.object_qpos(sensordata), tr.object_qpos[window])
-        obj = err.position**2 + self.rotation_weight * err.rotation**2
-        obj = obj + self.articulation_weight * err.articulation**2
+        obj = self.squared(self.scene.task.layout.error(self.object_qpos(sensordata), tr.object_qpos[window]))
         v = sensordata[..., self._vel]
         vel = np.einsum("shi,shi->sh", v, v)
         con = self.contact_term(sensordata, window) if self.lambda_c > 0.0 else np.zeros_like(obj)
