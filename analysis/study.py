@@ -302,8 +302,10 @@ def glance_table(root: Path = STUDIES) -> str:
     """The README's "results at a glance": of every study's ``glance()`` rows, the best per task (the
     highest lower bound of the 95 % Wilson interval of its completion rate, so that 9/10 beats 1/1, then
     the same of finishing cleanly, then the fewest median CPU-s; ties keep the study first by name),
-    tasks in the order they first appear."""
+    tasks in the order they first appear; below it the task's default (a row whose configuration says
+    ``(the default)``) where the default is not the best, so the table shows what a user gets by default."""
     best: dict[str, tuple[tuple, dict]] = {}
+    default: dict[str, tuple[tuple, dict]] = {}
     for name in names(root):
         for row in Study(name, root).glance():
             row = {**row, "study": row.get("study") or f"[{name}](studies/{name}/README.md)"}
@@ -315,12 +317,17 @@ def glance_table(root: Path = STUDIES) -> str:
             task = str(row.get("task"))
             if task not in best or key > best[task][0]:
                 best[task] = (key, row)
+            if "(the default)" in str(row.get("configuration")) and (
+                task not in default or key > default[task][0]
+            ):
+                default[task] = (key, row)
     lines = [
         "| " + " | ".join(GLANCE_COLUMNS) + " |",
         "|---|---|--:|--:|--:|---|",
     ]
-    for _, row in best.values():
-        lines.append("| " + " | ".join(str(row.get(c, "—")) for c in GLANCE_COLUMNS) + " |")
+    for task, (_, row) in best.items():
+        rows = [row] + ([default[task][1]] if task in default and default[task][1] is not row else [])
+        lines += ["| " + " | ".join(str(r.get(c, "—")) for c in GLANCE_COLUMNS) + " |" for r in rows]
     return "\n".join(lines) + "\n"
 
 

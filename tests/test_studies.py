@@ -139,6 +139,22 @@ def test_glance_keeps_the_best_row_per_task(tmp_path) -> None:
     assert with_glance(readme, "T\n") == f"x\n{study_mod.GLANCE_BEGIN}\nT\n{study_mod.GLANCE_END}\ny\n"
 
 
+def test_glance_shows_the_default_below_the_best_where_it_is_another(tmp_path) -> None:
+    """A row whose configuration says ``(the default)`` follows the task's best row where another row is
+    the best, and is the only row where it is the best itself."""
+    rows = {"a": ("x (the default)", "7/10"), "b": ("y", "9/10"), "c": ("z (the default)", "10/10")}
+    for name, (configuration, done) in rows.items():
+        task = "bottle" if name == "c" else "apple"
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "report.py").write_text(
+            'TITLE = "t"\nEXPERIMENTS = []\ndef report(study):\n  return ""\n'
+            f'def glance(study):\n  return [{{"task": "{task}", "configuration": "{configuration}", '
+            f'"completed": "{done}"}}]\n'
+        )
+    lines = glance_table(tmp_path).splitlines()[2:]
+    assert [line.split(" | ")[1] for line in lines] == ["y", "x (the default)", "z (the default)"]
+
+
 def test_old_labels_go_through_the_projects_label_map() -> None:
     """Records' variants are renamed by ``contactmpc.labels.method_name``: an old record's variant and a
     new record's groups of the same method get one name, and a name read again stays the same."""
