@@ -924,17 +924,20 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         f"Options on top of `{on}` (the paper tasks' default when they ran) run as full trials on the "
         "sweep's seeds (stapler first, the task furthest from the target, then the bottle and the apple; "
         f"seeds vary fastest), kept in `{LEVERS}/` (`{LEVERS_RUN}`), each against `{on}`'s own trials on the "
-        f"same seeds (on seeds {HELDOUT_SEEDS}, its held-out trials: *On seeds it was not chosen on*).\n\n"
+        f"same seeds (on seeds {HELDOUT_SEEDS}, its held-out trials: *On seeds it was not chosen on*); a "
+        "lever run on top of another method (`lever` on `method`) against that method's trials.\n\n"
     )
     if not len(ok):
         return head + "No such trial is kept yet.\n"
-    held = frame(study, HELDOUT)  # the method's own trials on the held-out seeds
-    base = pd.concat([counted(chosen), held[held["counted"]] if len(held) else held])
-    base = base[base["variant"] == on] if len(base) else base
+    held = frame(study, HELDOUT)  # the methods' own trials on the held-out seeds
+    every = pd.concat([counted(chosen), held[held["counted"]] if len(held) else held])
     rows, fig_rows = [], []
     # each override once, also where several levers combine it (carry=pose, carry=pose pacing=release)
     notes = [f"- {_lever_text(part)}" for part in sorted({p for lever in ok["lever"] for p in lever.split()})]
+    bases = {lever: built_on(g) for lever, g in ok.groupby("lever", sort=True)}  # the method each is on
+    named = {lever: lever if m == on else f"{lever}` on `{m}" for lever, m in bases.items()}
     for lever, g in ok.groupby("lever", sort=True):
+        base = every[every["variant"] == bases[lever]] if len(every) else every
         for task, half in ((t, h) for t in plan()[0] for h in ("sweep", "held out")):
             h = g[(g["task"] == task) & (g["seeds"] == half)].sort_values("seed")
             if not len(h):
@@ -950,12 +953,12 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             errors = f"{mm[0]} / {mm[1]} | {mm[2]} / {mm[3]}"
             where = task if half == "sweep" else task + HELD_OUT
             rows.append(
-                f"| `{lever}` | {where} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
+                f"| `{named[lever]}` | {where} | {seeds(h['seed'])} | {of(hk, len(h))} | {of(hc, len(h))} "
                 f"| {of(ck, len(c))} | {of(cc, len(c))} | {Fmt.p(p)} | {seeds(only)} | {seeds(lost)} "
                 f"| {errors} | {'' if math.isnan(ratio) else f'{ratio:.2f}'} |"
             )
             if len(c) == len(h):
-                name = lever if half == "sweep" else lever + HELD_OUT
+                name = named[lever] if half == "sweep" else named[lever] + HELD_OUT
                 fig_rows.append((task, name, len(h), hk, hc, ck, cc))
     best = []  # per task, the lever (of >= 5 seeds) with the largest difference in seeds finished cleanly
     whole: dict[tuple[str, str], np.ndarray] = {}  # a lever's counts over all its seeds, held out too
@@ -996,16 +999,17 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         )
     summary += stacked(ok)
     apart = []  # per lever, its trials whose seed the method ran on another processor
-    where = base.set_index(["task", "seed"])["cpu"] if "cpu" in base else pd.Series(dtype=object)
-    where = where[~where.index.duplicated()]
     for lever, g in ok.groupby("lever", sort=True):
+        base = every[every["variant"] == bases[lever]] if len(every) else every
+        where = base.set_index(["task", "seed"])["cpu"] if "cpu" in base else pd.Series(dtype=object)
+        where = where[~where.index.duplicated()]
         pairs = [(r["task"], r["seed"], r.get("cpu")) for r in g.to_dict("records")]
         off = [(t, sd) for t, sd, cpu in pairs if (t, sd) in where.index and where[(t, sd)] != cpu]
         if off:
             per = "; ".join(
                 f"{t} {seeds([sd for tt, sd in off if tt == t])}" for t in sorted({t for t, _ in off})
             )
-            apart.append(f"`{lever}` {len(off)} of {len(pairs)} ({per})")
+            apart.append(f"`{named[lever]}` {len(off)} of {len(pairs)} ({per})")
     cpus = (
         "Trials whose seed the method ran on another processor (a lent 16-core machine's or this one's; "
         "the same config and seed on another processor is another draw, so for these only the counts "
