@@ -936,8 +936,9 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     notes = [f"- {_lever_text(part)}" for part in sorted({p for lever in ok["lever"] for p in lever.split()})]
     bases = {lever: built_on(g) for lever, g in ok.groupby("lever", sort=True)}  # the method each is on
     named = {lever: lever if m == on else f"{lever}` on `{m}" for lever, m in bases.items()}
+    base_of = {lever: every[every["variant"] == m] if len(every) else every for lever, m in bases.items()}
     for lever, g in ok.groupby("lever", sort=True):
-        base = every[every["variant"] == bases[lever]] if len(every) else every
+        base = base_of[lever]
         for task, half in ((t, h) for t in plan()[0] for h in ("sweep", "held out")):
             h = g[(g["task"] == task) & (g["seeds"] == half)].sort_values("seed")
             if not len(h):
@@ -1000,7 +1001,7 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     summary += stacked(ok)
     apart = []  # per lever, its trials whose seed the method ran on another processor
     for lever, g in ok.groupby("lever", sort=True):
-        base = every[every["variant"] == bases[lever]] if len(every) else every
+        base = base_of[lever]
         where = base.set_index(["task", "seed"])["cpu"] if "cpu" in base else pd.Series(dtype=object)
         where = where[~where.index.duplicated()]
         pairs = [(r["task"], r["seed"], r.get("cpu")) for r in g.to_dict("records")]
