@@ -249,6 +249,16 @@ def _start_time(pid: int) -> str | None:
     return stat.rpartition(")")[2].split()[19]
 
 
+def _stopped(pid: int) -> bool:
+    """Whether process ``pid`` is stopped (``/proc/<pid>/stat``'s state ``T``, e.g. paused by SIGSTOP, or
+    ``t``, stopped by a tracer): it holds no core while stopped; ``False`` where unknown."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rpartition(")")[2].split()[0] in ("T", "t")
+
+
 def _alive(pid: int, started: str | None) -> bool:
     if started is not None and Path("/proc").is_dir():
         return _start_time(pid) == started
@@ -266,7 +276,8 @@ class RunningTrials:
 
     While entered (``with RunningTrials() as running:``), the trial has a file ``<pid>-<token>`` in
     ``directory`` naming its process (and the process's start time). :meth:`count` counts the files of
-    live processes (a stale file, of a process that died without removing it, is ignored and removed); a
+    live processes that are not stopped (a trial paused with SIGSTOP holds no core until it is continued;
+    a stale file, of a process that died without removing it, is ignored and removed); a
     thread samples it every ``interval`` seconds, and :attr:`max` is the most seen, the trial itself
     included. It only reads and writes small files: the trial computes the same with it or without.
 
@@ -286,7 +297,7 @@ class RunningTrials:
         self._thread: threading.Thread | None = None
 
     def count(self) -> int:
-        """Trials running now on this machine (files of live processes)."""
+        """Trials running now on this machine (files of live processes that are not stopped)."""
         n = 0
         try:
             files = list(self.directory.iterdir())
@@ -300,7 +311,7 @@ class RunningTrials:
             except (OSError, ValueError):
                 continue
             if _alive(pid, started):
-                n += 1
+                n += not _stopped(pid)
             else:
                 path.unlink(missing_ok=True)
         return n

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import socket
 import stat
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,6 +81,29 @@ def test_running_trials_counts_live_processes_and_ignores_stale_files(tmp_path):
         other.kill()
         other.wait()
     assert records.RunningTrials(tmp_path).count() == 0
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs /proc")
+def test_running_trials_do_not_count_a_stopped_process(tmp_path):
+    """A trial paused with SIGSTOP (another job's, stopped while an online run measures wall-clock time)
+    holds no core: it counts again once continued."""
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        (tmp_path / f"{other.pid}-33333333").write_text(records._start_time(other.pid) or "")
+        running = records.RunningTrials(tmp_path)
+        assert running.count() == 1
+        other.send_signal(signal.SIGSTOP)
+        deadline = time.monotonic() + 5.0
+        while running.count() and time.monotonic() < deadline:  # the state changes asynchronously
+            time.sleep(0.01)
+        assert running.count() == 0 and (tmp_path / f"{other.pid}-33333333").exists()  # kept, not stale
+        other.send_signal(signal.SIGCONT)
+        while not running.count() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert running.count() == 1
+    finally:
+        other.kill()
+        other.wait()
 
 
 def test_host_names_the_machine_its_processor_and_cores():
