@@ -364,6 +364,42 @@ def test_the_method_study_s_online_row_says_how_many_trials_ran_at_once() -> Non
     assert spec.online_method(run | {"concurrent_trials": 1}) == spec.online_method(run) == spec.METHOD
 
 
+def test_the_method_study_names_an_online_run_on_another_processor_apart() -> None:
+    """online_method: wall-clock runs on different processors are not counted together: a run on another
+    processor than the usual one (the one most online runs ran on) is named with its processor."""
+    spec = Study("method").spec
+    milan = {
+        "variant": spec.METHOD,
+        "host": {"cpu": "AMD EPYC (AuthenticAMD, family 25, model 1, stepping 1)"},
+    }
+    genoa = milan | {"host": {"cpu": "AMD EPYC (AuthenticAMD, family 25, model 17, stepping 1)"}}
+    assert spec.online_cpu(milan) == "AMD EPYC (family 25, model 1)"
+    assert spec.online_cpu({"cpu": "AMD EPYC"}) == "AMD EPYC"  # a record without its host's
+    assert spec.usual_cpu([milan, genoa, genoa]) == "AMD EPYC (family 25, model 17)"
+    assert spec.usual_cpu([]) is None
+    assert spec.online_method(milan, "AMD EPYC (family 25, model 17)") == (
+        f"{spec.METHOD}, on AMD EPYC (family 25, model 1)"
+    )
+    assert spec.online_method(genoa, "AMD EPYC (family 25, model 17)") == spec.online_method(genoa)
+
+
+def test_the_method_study_names_each_screened_release_lever() -> None:
+    """The release screen's levers, from their run folders' names: the method, release=still at each rest
+    weight (cost.rest_weight beside it, in either order; its own 100 without), any other lever as it is."""
+    spec = Study("method").spec
+    folder = "experiment=method,job.start_time=47.5,{}seed=0,task=paper_doorknob/trial.json"
+    lever = lambda s: spec._screen_lever(folder.format(s))  # noqa: E731
+    assert lever("") == "" and spec._screen_name("") == f"`{spec.METHOD}`"
+    assert spec._still_weight(lever("release=still,")) == 100.0
+    assert spec._still_weight(lever("cost.rest_weight=30,release=still,")) == 30.0
+    assert spec._screen_name(lever("cost.rest_weight=30,release=still,")) == "`release=still`, 30 s^2"
+    assert spec._still_weight(lever("release=still_wrist,")) is None
+    assert spec._screen_name(lever("release=still_wrist,")) == "`release=still_wrist`"
+    order = sorted(["release=still_wrist", "cost.rest_weight=300 release=still", "", "release=still"],
+                   key=spec._screen_order)  # fmt: skip
+    assert order == ["", "release=still", "cost.rest_weight=300 release=still", "release=still_wrist"]
+
+
 def test_the_method_study_sets_online_runs_held_to_the_calibrated_latency_beside_those_not(tmp_path) -> None:
     """held_online: per task and slowdown, the method's online runs held to the calibrated latency
     (apply_after) against its continuously replanning runs at the same slowdown; nothing without them."""

@@ -592,27 +592,43 @@ def _ms(r: dict, key: str) -> str:
     return Fmt.num(1e3 * r[key], 0) if isinstance(r.get(key), float) else "—"
 
 
-def online_method(r: dict) -> str:
+def online_cpu(r: dict) -> str:
+    """The processor an online run ran on, short: the record's host CPU without its vendor string and
+    stepping (``AMD EPYC (family 25, model 1)``); its coarse ``cpu`` where the record has no host."""
+    full = str(((r.get("host") or {}).get("cpu")) or r.get("cpu") or "unknown CPU")
+    return re.sub(r"\((?:[A-Za-z]+, )?(family \d+, model \d+)(?:, stepping \d+)?\)", r"(\1)", full)
+
+
+def usual_cpu(records: list[dict]) -> str | None:
+    """The processor (:func:`online_cpu`) most of the online runs ``records`` ran on (ties: by name)."""
+    counts = pd.Series([online_cpu(r) for r in records]).value_counts()
+    return sorted(counts.index, key=lambda c: (-counts[c], c))[0] if len(counts) else None
+
+
+def online_method(r: dict, usual: str | None = None) -> str:
     """An online run's method: :func:`method_name`, ``paced N ms`` where the planner was paced to a plan
     every ``job.min_interval`` of control time at most, and ``held to N ms`` where each plan was held to act
     no sooner than ``job.apply_after`` after its state; ``beside N other trials`` where others ran on the
     machine at the same time (the record's ``concurrent_trials``), so its runs are not counted with the same
-    method's runs alone."""
+    method's runs alone; ``on <processor>`` where it ran on another processor than ``usual`` (wall-clock
+    runs on different processors are not counted together)."""
     paced, held = r.get("min_interval") or 0.0, r.get("apply_after") or 0.0
     others = int(r.get("concurrent_trials") or 1) - 1
+    cpu = online_cpu(r)
     return (
         method_name(r)
         + (f", paced {1e3 * paced:.0f} ms" if paced > 0 else "")
         + (f", held to {1e3 * held:.0f} ms" if held > 0 else "")
         + (f", beside {others} other trial{'s' * (others > 1)}" if others > 0 else "")
+        + (f", on {cpu}" if usual is not None and cpu != usual else "")
     )
 
 
-def _online_row(r: dict) -> str:
+def _online_row(r: dict, usual: str | None = None) -> str:
     yes = {True: "yes", False: "no"}
     slowdown, factor = r.get("slowdown", math.nan), r.get("real_time_factor", math.nan)
     return (
-        f"| {r.get('task', '').removeprefix('paper_')} | {online_method(r)} | {r.get('seed')} "
+        f"| {r.get('task', '').removeprefix('paper_')} | {online_method(r, usual)} | {r.get('seed')} "
         f"| {Fmt.num(slowdown, 0)} | {Fmt.num(factor, 3)} "
         f"| {_ms(r, 'replan_interval_median')} | {_ms(r, 'plan_latency_median')} "
         f"| {_ms(r, 'plan_seconds_grasp_median')} | {_ms(r, 'plan_seconds_after_grasp_median')} "
@@ -1597,50 +1613,83 @@ SCREEN = "release_screen"
 SCREEN_RUN = "bash studies/method/run_release_screen.sh"
 
 
-def _rest_weight(r: dict) -> float:
-    """The rest weight (``cost.rest_weight``, s^2) a record's config gave its cost: 0 without the term."""
-    config = json.loads(Path(r["record_path"]).read_text()).get("config", {})
-    return float(config.get("cost", {}).get("rest_weight", 0.0) or 0.0)
+def _screen_lever(record_path) -> str:
+    """A release screen trial's lever (:func:`lever_of` without the screen's ``job.start_time``): ``""``
+    for the method itself."""
+    return " ".join(p for p in lever_of(record_path).split() if not p.startswith("job.start_time="))
+
+
+def _still_weight(lever: str) -> float | None:
+    """The rest weight (s^2) of a screened ``release=still`` lever (``cost.rest_weight`` beside it, else
+    its own 100); ``None`` for any other lever."""
+    parts = lever.split()
+    weights = [p.split("=", 1)[1] for p in parts if p.startswith("cost.rest_weight=")]
+    if "release=still" not in parts or len(parts) != 1 + len(weights) or len(weights) > 1:
+        return None
+    return float(weights[0]) if weights else 100.0
+
+
+def _screen_name(lever: str) -> str:
+    """How the screen's table names ``lever``: the method, ``release=still`` at its rest weight, or the
+    lever's overrides."""
+    weight = _still_weight(lever)
+    if not lever:
+        return f"`{METHOD}`"
+    return f"`release=still`, {weight:g} s^2" if weight is not None else f"`{lever}`"
+
+
+def _screen_order(lever: str) -> tuple:
+    """The screen table's order: the method, ``release=still`` by rest weight, then the other levers."""
+    weight = _still_weight(lever)
+    if not lever:
+        return (0, 0.0, "")
+    return (1, weight, "") if weight is not None else (2, 0.0, lever)
 
 
 def release_screen(study) -> str:
     """The doorknob's release screened (:data:`SCREEN`: trials started 4 s before the reference lets go,
-    ``run_release_screen.sh``): per rest weight (``cost.rest_weight``; 0 is the method), the trials that
-    count, completed, finished cleanly and the final error, and each weight against the method on the
-    same seeds; then the full trials of ``release=still``, which the levers' table counts."""
+    ``run_release_screen.sh``): per lever (``release=still`` at each rest weight, ``cost.rest_weight``;
+    the other release levers screened; none: the method), the trials that count, completed, finished
+    cleanly and the final error, and each lever against the method on the same seeds. The full trials of
+    ``release=still`` are in the levers' table."""
     head = (
         "The method's doorknob trials end unsettled because its release sets the frictionless knob moving "
         "(*Where the method falls short*). `release=still` prices the object's speed after the reference "
         "lets go (`cost.rest_weight`, s^2 against the squared error; not the paper's), so the plans prefer "
         "a release that leaves it still. Screened from 47.5 s, the plant at the reference's state 4 s before "
-        f"the reference lets go, to the trial's end (`job.start_time`; `{SCREEN_RUN}`, kept in `{SCREEN}/`): "
-        "the method, and `release=still` at four weights, on the same seeds. The full trials of "
-        "`release=still` are in the levers' table (*Levers on the method, full trials*).\n\n"
+        f"the reference lets go, to the trial's end (`job.start_time`; `{SCREEN_RUN}`, kept in `{SCREEN}/`; "
+        '`LEVERS="..."` screens others): the method, `release=still` at four weights and the other release '
+        "levers screened, on the same seeds. The full trials of `release=still` are in the levers' table "
+        "(*Levers on the method, full trials*).\n\n"
     )
     df = frame(study, SCREEN)
     ok = df[df["counted"] & df["task"].eq("doorknob")] if len(df) else df
     if not len(ok):
         return head + "No screen trial is kept yet.\n"
-    ok = ok.assign(weight=[_rest_weight(r) for r in ok.to_dict("records")])
-    base = ok[ok["weight"].eq(0.0)].set_index("seed")
-    rows, lines = [], []
-    for w, g in ok.groupby("weight", sort=True):
-        name = f"`{METHOD}`" if w == 0.0 else f"`release=still`, {w:g} s^2"
+    ok = ok.assign(lever=[_screen_lever(p) for p in ok["record_path"]])
+    base = ok[ok["lever"].eq("")].set_index("seed")
+    rows, lines, texts = [], [], []
+    for lever in sorted(set(ok["lever"]), key=_screen_order):
+        g = ok[ok["lever"].eq(lever)]
+        name = _screen_name(lever)
         final = 1e3 * g["_final"]
         rows.append(
             f"| {name} | {seeds(g['seed'])} | {of(int(g['completed'].sum()), len(g))} "
             f"| {of(int(g['finished_cleanly'].sum()), len(g))} | {median(final)} "
             f"| {median(g['cpu_seconds'])} |"
         )
-        if w != 0.0 and len(base):
+        if lever and len(base):
             same = base.loc[base.index.intersection(g["seed"])]
             lines += [
                 f"- {name}, " + line[2:]
                 for line in _against(g[g["seed"].isin(same.index)], same, "with it", f"`{METHOD}`")
                 if "finished cleanly" in line
             ]
+        if lever and (_still_weight(lever) is None or lever == "release=still"):
+            texts.append(f"- {_lever_text(lever)}")
     cols = ("method", "seeds", "completed", "finished cleanly", "median final error (mm)", "median CPU-s")
-    return head + pipe_table(cols, "llrrrr", rows) + "\n" + (";\n".join(lines) + ".\n" if lines else "")
+    out = head + pipe_table(cols, "llrrrr", rows) + "\n" + (";\n".join(lines) + ".\n" if lines else "")
+    return out + ("\nThe levers screened:\n\n" + "\n".join(texts) + "\n" if texts else "")
 
 
 def _against(a: pd.DataFrame, b: pd.DataFrame, name_a: str, name_b: str) -> list[str]:
@@ -1730,13 +1779,14 @@ def online(study) -> str:
         return rank.get(task, 99), method, r.get("slowdown") or 0, r.get("seed") or 0
 
     records.sort(key=order)
-    rows = [_online_row(r) for r in records]
+    usual = usual_cpu(records)
+    rows = [_online_row(r, usual) for r in records]
     cols = (
         "task", "method", "seed", "slowdown", "real-time factor", "replan interval, median (ms)",
         "plan latency, median (ms)", "grasp's plans, median (ms wall)", "later plans, median (ms wall)",
         "completed", "finished cleanly", "TTF", "trials at once", "model switched (s)",
     )  # fmt: skip
-    name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {online_method(r)}"  # noqa: E731
+    name = lambda r: f"{r.get('task', '').removeprefix('paper_')} {online_method(r, usual)}"  # noqa: E731
     table, prose, _ = by_slowdown(records, name)
     return (
         head
@@ -1755,11 +1805,11 @@ def online(study) -> str:
         + "\n- "
         + ";\n- ".join(prose)
         + ".\n"
-        + grasp_plans(records)
+        + grasp_plans(records, usual)
     )
 
 
-def grasp_plans(records: list[dict]) -> str:
+def grasp_plans(records: list[dict], usual: str | None = None) -> str:
     """Per task and method, over its runs alone on the machine that record them: the median of the runs'
     grasp-window plan wall times (``plan_seconds_grasp_median``) and of their later plans', per slowdown,
     beside the runs completed; empty where no run records them."""
@@ -1768,7 +1818,7 @@ def grasp_plans(records: list[dict]) -> str:
         grasp, later = r.get("plan_seconds_grasp_median"), r.get("plan_seconds_after_grasp_median")
         if grasp is None or later is None or int(r.get("concurrent_trials") or 1) > 1:
             continue
-        key = (r.get("task", "").removeprefix("paper_"), online_method(r), r.get("slowdown"))
+        key = (r.get("task", "").removeprefix("paper_"), online_method(r, usual), r.get("slowdown"))
         rows.setdefault(key, []).append((grasp, later, bool(r.get("completed"))))
     if not rows:
         return ""
@@ -2690,10 +2740,14 @@ def loop_section(study, df: pd.DataFrame) -> str:
     if not records:
         return head + "No such trial is kept yet.\n"
     ok = with_heldout(study, df)
+    online_runs = kept(study, "online")
+    usual = usual_cpu(online_runs)
     runs = [
         r
-        for r in kept(study, "online")
-        if r.get("slowdown") == 1 and not (r.get("apply_after") or r.get("min_interval"))
+        for r in online_runs
+        if r.get("slowdown") == 1
+        and not (r.get("apply_after") or r.get("min_interval"))
+        and online_cpu(r) == usual
     ]
     key = lambda r: (r.get("task", ""), method_name(r) or METHOD, loop_threads(r))  # noqa: E731
     rank = {t: i for i, t in enumerate(TASK_ORDER)}
@@ -2759,7 +2813,8 @@ def loop_section(study, df: pd.DataFrame) -> str:
         "completed / clean", "Barnard p (completed)", "online, 2 threads, real time: completed / clean",
     )  # fmt: skip
     note = (
-        "\n*Online*: the method's runs at slowdown 1 (every run of it, seeds 0-9 and re-runs), which plan "
+        "\n*Online*: the method's runs at slowdown 1 (every run of it on the processor most online runs ran "
+        f"on, {usual}: seeds 0-9 and re-runs), which plan "
         "continuously on this machine's 2 threads while the plant steps in a third thread on the same 2 "
         "cores; their grasp plans take longer than the model's 2 threads price (*Online, in wall-clock "
         "time*: their measured medians).\n"

@@ -9,9 +9,14 @@ set -u
 cd "$(dirname "$0")/../.."
 PY=${PY:-python}
 OUT=${OUT:-studies/method/release_screen}
+# LEVERS: other levers than these, ';'-separated (each several overrides), screened on the same seeds, e.g.
+#   LEVERS="release=still_wrist" bash studies/method/run_release_screen.sh
+DEFAULT='release=still;release=still cost.rest_weight=30;release=still cost.rest_weight=300'
+DEFAULT+=';release=still cost.rest_weight=1000'
+IFS=';' read -r -a levers <<< "${LEVERS:-$DEFAULT}"
+[[ -z ${LEVERS:-} ]] && levers=("" "${levers[@]}")  # the method itself, the screen's baseline
 for seed in ${SEEDS:-0 1 2 3 4 5 6 7}; do
-  for lever in "" "release=still" "release=still cost.rest_weight=30" "release=still cost.rest_weight=300" \
-      "release=still cost.rest_weight=1000"; do
+  for lever in "${levers[@]}"; do
     # shellcheck disable=SC2086
     "$PY" launch.py experiment=method task=paper_doorknob seed="$seed" job.start_time=47.5 $lever \
       hydra.launcher.n_jobs=1 "hydra.sweep.dir=$OUT" || true
