@@ -25,6 +25,7 @@ from contactmpc.jobs.trial import summarize
 from contactmpc.metrics import errors_by_window
 from contactmpc.tasks import AppleTask, DoorknobTask
 from contactmpc.tasks.base import sustained_to_end
+from contactmpc.validate import ConfigError
 
 DT = 0.05  # s between logged rows (the lite preset's replan period)
 HOLD = 0.3  # s, job.milestone_hold
@@ -442,6 +443,76 @@ def test_the_nominal_wrist_waits_at_the_last_contact_and_then_retreats_late():
     np.testing.assert_allclose(curve[mid, 0], 4.0, atol=0.05)  # the wrist waits at its pose at 4 s
     late = t > 6.0
     np.testing.assert_allclose(curve[late, 0], t[late] - 1.5, atol=0.05)
+
+
+def test_the_nominal_wrist_holds_still_from_before_the_last_contact():
+    """sampler.release.hold: the root curves stop ``hold`` before the last contact, wait there for the hold
+    and the pause, and go on that much later; hold 0 is the pause alone, bit for bit; a hold needs the
+    reset that puts the committed wrist on it."""
+    from contactmpc.control.samplers import JointSplineSpace
+    from contactmpc.reference.bspline import UniformBSpline
+
+    t = np.linspace(0.0, 10.0, 101)
+    qpos = np.concatenate([np.tile(t[:, None], (1, 6)), np.sin(t)[:, None] * np.ones((1, 4))], axis=1)
+    spline = UniformBSpline(40, (0.0, 10.0))
+    ranges = np.tile([-100.0, 100.0], (10, 1))
+
+    def fit(**release):
+        return JointSplineSpace(0.2, release=ReleaseSchedule(**release)).fit(
+            spline, t, qpos, ranges, 6, last_contact=4.0
+        )
+
+    np.testing.assert_array_equal(fit(reset=True, pause=1.5, hold=0.0), fit(pause=1.5))
+    curve = spline.basis(t) @ fit(reset=True, pause=1.5, hold=1.0)
+    np.testing.assert_allclose(curve[:, 6:], spline.basis(t) @ fit()[:, 6:])  # the fingers unchanged
+    np.testing.assert_allclose(curve[t < 2.7, 0], t[t < 2.7], atol=0.05)  # the reference's until then
+    mid = (t > 3.3) & (t < 5.2)
+    np.testing.assert_allclose(curve[mid, 0], 3.0, atol=0.05)  # still from 1 s before the last contact
+    late = t > 6.0
+    np.testing.assert_allclose(curve[late, 0], t[late] - 2.5, atol=0.05)  # then on, 2.5 s late
+    with pytest.raises(ConfigError, match="sampler.release.hold needs sampler.release.reset"):
+        ReleaseSchedule(hold=1.0)
+
+
+def test_release_hold_resets_the_committed_wrist_before_the_fingers(scene_for):
+    """sampler.release.hold: at the first plan ``hold`` before the reference's last expected contact, the
+    committed wrist control points whose support meets the rest of the trial go to the release nominal's
+    (the fingers' stay as the plans left them); at the last contact the whole reset, as without it.
+    Real rollouts (one sample: the nominal, so what is committed is what the plan started from)."""
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.samplers import PCASplineSpace
+    from tests.helpers import rest_state
+
+    scene = scene_for("apple")
+    state = rest_state(scene.plant_model)
+    rng = np.random.default_rng(0)
+    ref = _letting_go(scene)
+    plain = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), horizon=0.2, num_control_points=12)
+    hold = 0.5 * plain.last_contact
+    space = PCASplineSpace(0.2, release=ReleaseSchedule(reset=True, open=0.1, pause=0.1, hold=hold))
+    problem = Problem.build(scene, ref, space, TrackingCost(), horizon=0.2, num_control_points=12)
+    np.testing.assert_array_equal(problem.theta0, plain.theta0)  # the reference's own until the reset
+    planner = PredictiveSampling(num_samples=1, horizon=0.2, nthread=1)
+    planner.bind(problem)
+    planner.theta = problem.theta0 + 0.3
+    walked = planner.theta.copy()
+    at, root = problem.last_contact - hold, scene.hand.num_root
+    planner.plan(at - 0.05, state, rng)  # before the hold: nothing reset
+    np.testing.assert_array_equal(planner.theta, walked)
+    planner.plan(at + 0.005, state, rng)
+    points = problem.spline.window_indices(at, problem.spline.domain[1] - at)
+    np.testing.assert_array_equal(planner.theta[points, :root], problem.release_theta[points, :root])
+    np.testing.assert_array_equal(planner.theta[:, root:], walked[:, root:])  # the fingers as they were
+    others = np.setdiff1d(np.arange(problem.spline.num_control_points), points)
+    np.testing.assert_array_equal(planner.theta[others], walked[others])
+    planner.plan(problem.last_contact + 0.005, state, rng)  # the last contact: the whole reset
+    last = problem.spline.window_indices(
+        problem.last_contact, problem.spline.domain[1] - problem.last_contact
+    )
+    np.testing.assert_array_equal(planner.theta[last], problem.release_theta[last])
+    planner.close()
 
 
 def test_the_nominal_fingers_open_to_the_first_pose_after_the_last_contact():

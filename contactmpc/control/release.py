@@ -7,6 +7,8 @@ after that last contact, and how:
 
 - ``pause``: the nominal wrist waits at its pose of the last contact before it follows the reference's
   retreat (:func:`paused`), so the hand opens before it withdraws;
+- ``hold``: the nominal wrist stands still from that long before the last contact (and the pause that
+  much longer), so the hand does not move the object it is letting go of;
 - ``open`` / ``open_to``: the nominal fingers open to the approach's pre-shape or the flat hand
   (:func:`opened`);
 - ``backoff`` / ``backoff_window``: the nominal wrist backs off from the expected contacts
@@ -109,6 +111,14 @@ class ReleaseSchedule:
             expected contact before it follows the reference's retreat (the rest of the retreat that
             much later), while the fingers open on the reference's schedule: open, then withdraw.
             0: the reference's wrist as it is.
+        hold: seconds (control time) before the reference's last expected contact from which the
+            nominal wrist already stands still: it waits at its pose ``hold`` seconds before the last
+            contact for ``hold + pause`` seconds and then goes on as the reference's, that much later;
+            with ``reset``, the committed wrist control points go to that nominal at that time (the
+            fingers still at the last contact). Where the demonstration's hand slides along the object
+            while it lets go (the paper doorknob's, about 1 cm/s along the slide in its last 2 s), a
+            grip that does not slip would carry the object with it. 0: the wrist moves until the last
+            contact.
         open: seconds (control time) over which the nominal fingers go, from the reference's pose at
             the last expected contact, to the open pose (``open_to``), and stay there; 0: the
             reference's fingers.
@@ -150,6 +160,7 @@ class ReleaseSchedule:
     def __init__(
         self,
         pause: Annotated[float, Ge(0)] = 0.0,
+        hold: Annotated[float, Ge(0)] = 0.0,
         open: Annotated[float, Ge(0)] = 0.0,
         open_to: Annotated[str, OneOf("approach", "flat")] = "approach",
         backoff: Annotated[float, Ge(0)] = 0.0,
@@ -160,6 +171,9 @@ class ReleaseSchedule:
         blend: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         self.pause = float(pause)
+        self.hold = float(hold)
+        if self.hold > 0.0 and not reset:
+            raise ConfigError("sampler.release.hold needs sampler.release.reset (the wrist is reset to it)")
         self.open = float(open)
         self.open_to = open_to
         self.backoff = float(backoff)
@@ -172,6 +186,7 @@ class ReleaseSchedule:
     def __repr__(self) -> str:
         fields = (
             "pause",
+            "hold",
             "open",
             "open_to",
             "backoff",
@@ -190,8 +205,8 @@ class ReleaseSchedule:
         last_contact: float | None,
         direction: np.ndarray | None,
     ) -> np.ndarray:
-        """The nominal wrist curves: ``root`` (T, R) paused and backed off after ``last_contact``
-        (``None``: the reference ends held, ``root`` as it is).
+        """The nominal wrist curves: ``root`` (T, R) held from ``hold`` before ``last_contact``, paused
+        and backed off after it (``None``: the reference ends held, ``root`` as it is).
 
         Args:
             times: (T,) control times of the reference frames.
@@ -202,7 +217,9 @@ class ReleaseSchedule:
         Raises:
             ValueError: ``backoff`` without a direction.
         """
-        if self.pause > 0.0 and last_contact is not None:
+        if self.hold > 0.0 and last_contact is not None:
+            root = paused(times, root, last_contact - self.hold, self.hold + self.pause)
+        elif self.pause > 0.0 and last_contact is not None:
             root = paused(times, root, last_contact, self.pause)
         if self.backoff > 0.0 and last_contact is not None:
             if direction is None:

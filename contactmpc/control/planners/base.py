@@ -403,6 +403,10 @@ class Planner:
         # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
+        # sampler.release.hold: that long before, the committed wrist control points go to the release
+        # nominal's (which stands still from then), once (None: never)
+        hold = getattr(getattr(problem.space, "release", None), "hold", 0.0)
+        self._hold_at = self._release_at - hold if self._release_at is not None and hold > 0.0 else None
         # approach_reset: before the first expected contact, the committed control points from then on go
         # back to the reference's own, once (None: never)
         first = problem.first_contact
@@ -776,6 +780,8 @@ class Planner:
             self.pace(takes_effect, s, state)
         if self._approach_at is not None and s >= self._approach_at - 1e-9:
             self.reset_approach()
+        if self._hold_at is not None and s >= self._hold_at - 1e-9:
+            self.release(self._hold_at, wrist_only=True)
         if self._release_at is not None and s >= self._release_at - 1e-9:
             self.release()
         if self.carry_gain:
@@ -939,26 +945,36 @@ class Planner:
         factor = self.anneal ** (iteration / self.iterations)
         return np.full((len(window), 1), factor) if ramp is None else factor * ramp
 
-    def release(self) -> np.ndarray:
+    def release(self, at: float | None = None, wrist_only: bool = False) -> np.ndarray:
         """Put the committed control points whose support meets the rest of the trial after the
         reference's last expected contact to the release nominal (``problem.release_theta``:
         ``sampler.release.reset``), the wrist keeping the carry's shift; with the schedule's ``blend``,
         partway there by each point's Greville abscissa; done once.
 
+        Args:
+            at: from when (s, reference time); ``None``: the last expected contact.
+            wrist_only: only the wrist's columns, once, at ``at`` (the schedule's ``hold`` before the
+                last contact; the whole reset still comes at the last contact).
+
         Returns:
             the indices of the control points reset.
         """
-        spline, at = self.problem.spline, self.problem.last_contact
+        spline = self.problem.spline
+        at = self.problem.last_contact if at is None else at
         reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
-        target = self.problem.release_theta[reset].copy()
+        cols = slice(0, self.problem.scene.hand.num_root if wrist_only else None)
+        target = self.problem.release_theta[reset, cols].copy()
         if self.carry_gain:  # the wrist keeps the shift that carried the object
             target[:, :6] += self._carry
         blend = self.problem.space.release.blend
         if blend > 0.0:  # from the committed points toward the nominal, by each point's Greville abscissa
             weight = np.clip((spline.greville(reset) - at) / blend, 0.0, 1.0)[:, None]
-            target = self.theta[reset] + weight * (target - self.theta[reset])
-        self.theta[reset] = target
-        self._release_at = None
+            target = self.theta[reset, cols] + weight * (target - self.theta[reset, cols])
+        self.theta[reset, cols] = target
+        if wrist_only:
+            self._hold_at = None
+        else:
+            self._release_at = None
         return reset
 
     def carry(self, t: float, s: float, state: np.ndarray) -> np.ndarray:
