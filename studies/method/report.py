@@ -796,6 +796,8 @@ LEVERS_RUN = (
 )
 #: What a lever's override means, where it is not a group's member (whose own description is read from conf/).
 LEVER_TEXT = {
+    "cost.rest_weight=100": "the rest term of `release=still` at its weight (`cost.rest_weight`, 100 s^2), "
+    "here on top of another release",
     "cost.lambda_c=3.0": "the contact term x3 (`cost.lambda_c`; the paper's 1): the stapler's grasp screen "
     "lifted it on 16 of 20 seeds against the method's 12 (the method_screen study)",
     "planner.carry_hold=1.0": "the carry's wait until the grasp has held (`carry=held`'s 1 s), here on top "
@@ -1767,7 +1769,8 @@ def online(study) -> str:
         "the simulated loop at the calibrated latency) instead of continuously. *Held to N ms*: each plan "
         "acted no sooner than N ms of control time after its state (`job.apply_after`, not the paper's: a "
         "plan ready sooner waits, so plans act at the simulated trial's fixed latency where the machine "
-        "plans within it).\n\n"
+        "plans within it). A run's wall-clock time is its processor's: runs on another processor than the "
+        "one most runs ran on are named with theirs (*on ...*) and counted apart.\n\n"
     )
     if not records:
         return head + "No online run is kept yet.\n"
