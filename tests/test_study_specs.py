@@ -383,6 +383,30 @@ def test_the_method_study_names_an_online_run_on_another_processor_apart() -> No
     assert spec.online_method(genoa, "AMD EPYC (family 25, model 17)") == spec.online_method(genoa)
 
 
+def test_the_method_study_sets_online_methods_against_the_default_on_one_processor() -> None:
+    """online_against: real-time runs alone on the machine, each method against the default method on the
+    same processor and seeds (at least 5); other processors, slowdowns and busy runs stay apart."""
+    spec = Study("method").spec
+    cpu = {"host": {"cpu": "AMD EPYC (AuthenticAMD, family 25, model 1, stepping 1)"}}
+    other = {"host": {"cpu": "AMD EPYC (AuthenticAMD, family 25, model 17, stepping 1)"}}
+
+    def run(seed, variant, done, **more):
+        clean = done and seed % 2 == 0
+        return {"task": "paper_apple", "variant": variant, "seed": seed, "slowdown": 1.0, "completed": done,
+                "finished_cleanly": clean, "concurrent_trials": 1, **cpu, **more}  # fmt: skip
+
+    lever = f"{spec.METHOD}+effort=uniform"
+    records = [run(s, spec.METHOD, s < 2) for s in range(6)] + [run(s, lever, s < 5) for s in range(6)]
+    records += [run(s, lever, True, **other) for s in range(6)]  # no default-method runs on that CPU
+    records += [run(s, lever, False, slowdown=2.0) for s in range(6)]
+    records += [run(s, lever, False, concurrent_trials=3) for s in range(6)]
+    text = spec.online_against(records)
+    assert text.count("\n- ") == 1
+    assert f"apple, on AMD EPYC (family 25, model 1), seeds 0-5: `{lever}` completed 5 of 6" in text
+    assert f"`{spec.METHOD}` 2 and 1 (Barnard p = " in text
+    assert spec.online_against(records[:6]) == ""
+
+
 def test_the_method_study_names_each_screened_release_lever() -> None:
     """The release screen's levers, from their run folders' names: the method, release=still at each rest
     weight (cost.rest_weight beside it, in either order; its own 100 without), any other lever as it is."""

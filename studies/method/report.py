@@ -1809,6 +1809,44 @@ def online(study) -> str:
         + ";\n- ".join(prose)
         + ".\n"
         + grasp_plans(records, usual)
+        + online_against(records)
+    )
+
+
+def online_against(records: list[dict]) -> str:
+    """Per processor and task, each method's online runs in real time (slowdown 1, replanning
+    continuously, alone on the machine) against the default method's on the same processor and seeds:
+    completed and finished cleanly, with Barnard's test; empty where no such pair was run."""
+    alone = [
+        r
+        for r in records
+        if r.get("slowdown") == 1
+        and not (r.get("apply_after") or r.get("min_interval"))
+        and int(r.get("concurrent_trials") or 1) == 1
+    ]
+    groups: dict[tuple, dict[int, dict]] = {}
+    for r in alone:
+        key = (online_cpu(r), r.get("task", "").removeprefix("paper_"), method_name(r) or METHOD)
+        groups.setdefault(key, {})[int(r.get("seed", -1))] = r  # a re-run of a seed: the last kept
+    lines = []
+    for (cpu, task, method), runs in sorted(groups.items()):
+        base = groups.get((cpu, task, METHOD))
+        same = sorted(set(runs) & set(base or {}))
+        if method == METHOD or len(same) < 5:
+            continue
+        mine, theirs = tally([runs[s] for s in same]), tally([base[s] for s in same])
+        p_done = completion_test(mine[0], len(same), theirs[0], len(same))[0]
+        p_clean = completion_test(mine[1], len(same), theirs[1], len(same))[0]
+        lines.append(
+            f"- {task}, on {cpu}, seeds {seeds(same)}: `{method}` completed {of(mine[0], len(same))} and "
+            f"finished {mine[1]} cleanly, `{METHOD}` {theirs[0]} and {theirs[1]} (Barnard p = "
+            f"{Fmt.p(p_done)} completed, {Fmt.p(p_clean)} clean)"
+        )
+    if not lines:
+        return ""
+    return (
+        "\nIn real time on 2 threads (slowdown 1, alone on the machine), each method against "
+        f"`{METHOD}` on the same processor and seeds:\n\n" + ";\n".join(lines) + ".\n"
     )
 
 
