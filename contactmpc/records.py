@@ -239,24 +239,28 @@ RUNNING_DIR_ENV = "CONTACTMPC_RUNNING_DIR"
 ``<tmp>/contactmpc-running``)."""
 
 
-def _start_time(pid: int) -> str | None:
-    """When process ``pid`` started (``/proc/<pid>/stat``'s start time, in clock ticks), so a pid file of
-    a dead process is not taken for a new process given the same pid; ``None`` where unknown."""
+def _proc_stat(pid: int) -> list[str] | None:
+    """The fields of ``/proc/<pid>/stat`` after the process's name (the state first); ``None`` where
+    unknown (no such process, or no ``/proc``)."""
     try:
         stat = Path(f"/proc/{pid}/stat").read_text()
     except OSError:
         return None
-    return stat.rpartition(")")[2].split()[19]
+    return stat.rpartition(")")[2].split()
+
+
+def _start_time(pid: int) -> str | None:
+    """When process ``pid`` started (``/proc/<pid>/stat``'s start time, in clock ticks), so a pid file of
+    a dead process is not taken for a new process given the same pid; ``None`` where unknown."""
+    fields = _proc_stat(pid)
+    return None if fields is None else fields[19]
 
 
 def _stopped(pid: int) -> bool:
     """Whether process ``pid`` is stopped (``/proc/<pid>/stat``'s state ``T``, e.g. paused by SIGSTOP, or
     ``t``, stopped by a tracer): it holds no core while stopped; ``False`` where unknown."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return False
-    return stat.rpartition(")")[2].split()[0] in ("T", "t")
+    fields = _proc_stat(pid)
+    return fields is not None and fields[0] in ("T", "t")
 
 
 def _alive(pid: int, started: str | None) -> bool:
