@@ -1691,6 +1691,19 @@ def release_screen(study) -> str:
             texts.append(f"- {_lever_text(lever)}")
     cols = ("method", "seeds", "completed", "finished cleanly", "median final error (mm)", "median CPU-s")
     out = head + pipe_table(cols, "llrrrr", rows) + "\n" + (";\n".join(lines) + ".\n" if lines else "")
+    shares = {
+        lever: (g["finished_cleanly"].mean(), int(g["finished_cleanly"].sum()), len(g))
+        for lever, g in ok.groupby("lever")
+        if lever
+    }
+    if shares:
+        best = max(shares, key=lambda lever: (shares[lever][0], shares[lever][2]))
+        share, k, n = shares[best]
+        out += (
+            f"\nThe screen's most clean finishes, as a share of its seeds: {_screen_name(best)}, {of(k, n)}"
+            + ("" if share >= 0.8 else "; none reaches the target's share, 8 of 10")
+            + ".\n"
+        )
     return out + ("\nThe levers screened:\n\n" + "\n".join(texts) + "\n" if texts else "")
 
 
