@@ -124,6 +124,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "final_object_articulation_error": "float",
     "contact_fraction": "float",
     "first_contact_time": "float",
+    "last_contact_time": "float",
     "plan_seconds_mean": "float",
     "plan_seconds_p95": "float",
     "simulated_seconds": "float",

@@ -186,11 +186,11 @@ def test_summarize_records_the_end_of_the_trial():
     assert not any(k.startswith("milestone_") and "settle" in k for k in rec)  # not one of `completed`'s
     assert (rec["contact_span_start"], rec["contact_span_end"]) == (0.5, 2.5)
     assert rec["first_contact_time"] == series["time"][np.argmax(series["contacts"][:, 0])]
+    touching = np.flatnonzero(series["contacts"].any(axis=-1))
+    assert rec["last_contact_time"] == series["time"][touching[-1]] >= rec["first_contact_time"]
     untouched = {**series, "contacts": np.zeros_like(series["contacts"])}
-    assert (
-        summarize(untouched, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["first_contact_time"]
-        is None
-    )
+    none = summarize(untouched, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
+    assert none["first_contact_time"] is None and none["last_contact_time"] is None
     assert rec["object_position_error_span_mean"] == pytest.approx(0.0)
     assert rec["object_position_error_after_mean"] == pytest.approx(0.0)
     assert "switch_time" not in rec  # only with planner.switch_timestep

@@ -231,6 +231,9 @@ def summarize(
         "final_object_articulation_error": float(final_err.articulation),
         "contact_fraction": float(np.mean(series["contacts"].any(axis=-1))),
         "first_contact_time": float(series["time"][held.argmax()]) if held.any() else None,
+        "last_contact_time": float(series["time"][len(held) - 1 - held[::-1].argmax()])
+        if held.any()
+        else None,
         "plan_seconds_mean": float(np.mean(plan)),
         "plan_seconds_p95": float(np.percentile(plan, 95)),
         "simulated_seconds": sim,

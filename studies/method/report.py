@@ -796,6 +796,10 @@ LEVERS_RUN = (
 )
 #: What a lever's override means, where it is not a group's member (whose own description is read from conf/).
 LEVER_TEXT = {
+    "cost.release_weight=0.0": "no release term (`cost.release_weight`; the method's 1e-3 m^2 of squared "
+    "object error a contact after the last expected one), so the hand may stay on the object until it is "
+    "still",
+    "sampler.release.open=3.0": "the fingers open over 3 s (`sampler.release.open`; the method's 1 s)",
     "cost.rest_weight=100": "the rest term of `release=still` at its weight (`cost.rest_weight`, 100 s^2), "
     "here on top of another release",
     "cost.lambda_c=3.0": "the contact term x3 (`cost.lambda_c`; the paper's 1): the stapler's grasp screen "
@@ -1648,6 +1652,22 @@ def _screen_order(lever: str) -> tuple:
     return (1, weight, "") if weight is not None else (2, 0.0, lever)
 
 
+EARLY = 0.25  # s: a plant contact ending this long before the reference's last one (more than a plan period)
+
+
+def _let_go_early(g: pd.DataFrame) -> str:
+    """Of the screen trials ``g`` whose records have ``last_contact_time``, how many were off the knob
+    more than :data:`EARLY` before the reference's last expected contact; ``—`` where none has it."""
+    if "last_contact_time" not in g:
+        return "—"
+    last = pd.to_numeric(g["last_contact_time"], errors="coerce")
+    have = last.notna()
+    if not have.any():
+        return "—"
+    early = last[have] < pd.to_numeric(g.loc[have, "contact_span_end"], errors="coerce") - EARLY
+    return of(int(early.sum()), int(have.sum()))
+
+
 def release_screen(study) -> str:
     """The doorknob's release screened (:data:`SCREEN`: trials started 4 s before the reference lets go,
     ``run_release_screen.sh``): per lever (``release=still`` at each rest weight, ``cost.rest_weight``;
@@ -1668,7 +1688,10 @@ def release_screen(study) -> str:
     ok = df[df["counted"] & df["task"].eq("doorknob")] if len(df) else df
     if not len(ok):
         return head + "No screen trial is kept yet.\n"
-    ok = ok.assign(lever=[_screen_lever(p) for p in ok["record_path"]])
+    ok = ok.assign(
+        lever=[_screen_lever(p) for p in ok["record_path"]],
+        processor=[online_cpu(json.loads(Path(p).read_text())) for p in ok["record_path"]],
+    )
     base = ok[ok["lever"].eq("")].set_index("seed")
     rows, lines, texts = [], [], []
     for lever in sorted(set(ok["lever"]), key=_screen_order):
@@ -1677,8 +1700,8 @@ def release_screen(study) -> str:
         final = 1e3 * g["_final"]
         rows.append(
             f"| {name} | {seeds(g['seed'])} | {of(int(g['completed'].sum()), len(g))} "
-            f"| {of(int(g['finished_cleanly'].sum()), len(g))} | {median(final)} "
-            f"| {median(g['cpu_seconds'])} |"
+            f"| {of(int(g['finished_cleanly'].sum()), len(g))} | {_let_go_early(g)} | {median(final)} "
+            f"| {median(g['cpu_seconds'])} | {', '.join(sorted(set(g['processor'])))} |"
         )
         if lever and len(base):
             same = base.loc[base.index.intersection(g["seed"])]
@@ -1689,8 +1712,19 @@ def release_screen(study) -> str:
             ]
         if lever and (_still_weight(lever) is None or lever == "release=still"):
             texts.append(f"- {_lever_text(lever)}")
-    cols = ("method", "seeds", "completed", "finished cleanly", "median final error (mm)", "median CPU-s")
-    out = head + pipe_table(cols, "llrrrr", rows) + "\n" + (";\n".join(lines) + ".\n" if lines else "")
+    cols = (
+        "method", "seeds", "completed", "finished cleanly", "off the knob before the reference lets go",
+        "median final error (mm)", "median CPU-s", "processor",
+    )  # fmt: skip
+    out = head + pipe_table(cols, "llrrrrrl", rows) + "\n" + (";\n".join(lines) + ".\n" if lines else "")
+    out += (
+        "\n*Off the knob before the reference lets go*: trials whose last logged hand-knob contact "
+        f"(`last_contact_time`) came more than {EARLY:g} s before the reference's last expected contact "
+        "(`contact_span_end`): the knob had left the hand before any release lever acted, so a lever cannot "
+        "change how those trials end (— where the records predate the field). *Processor*: where the "
+        "trials ran; a lever and the method on different processors are different draws of the same "
+        "seeds, so only their counts compare.\n"
+    )
     shares = {
         lever: (g["finished_cleanly"].mean(), int(g["finished_cleanly"].sum()), len(g))
         for lever, g in ok.groupby("lever")
