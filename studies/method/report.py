@@ -600,9 +600,15 @@ def online_cpu(r: dict) -> str:
 
 
 def usual_cpu(records: list[dict]) -> str | None:
-    """The processor (:func:`online_cpu`) most of the online runs ``records`` ran on (ties: by name)."""
-    counts = pd.Series([online_cpu(r) for r in records]).value_counts()
-    return sorted(counts.index, key=lambda c: (-counts[c], c))[0] if len(counts) else None
+    """The processor (:func:`online_cpu`) most of the online runs ``records`` ran on (ties: by name), as
+    :func:`cost_processor` picks it."""
+    return cost_processor(pd.DataFrame({"cpu": [online_cpu(r) for r in records]}))
+
+
+def real_time(r: dict) -> bool:
+    """Whether an online run ran in real time (slowdown 1) replanning continuously (neither paced by
+    ``job.min_interval`` nor held by ``job.apply_after``)."""
+    return r.get("slowdown") == 1 and not (r.get("apply_after") or r.get("min_interval"))
 
 
 def online_method(r: dict, usual: str | None = None) -> str:
@@ -1864,13 +1870,7 @@ def online_against(records: list[dict]) -> str:
     """Per processor and task, each method's online runs in real time (slowdown 1, replanning
     continuously, alone on the machine) against the default method's on the same processor and seeds:
     completed and finished cleanly, with Barnard's test; empty where no such pair was run."""
-    alone = [
-        r
-        for r in records
-        if r.get("slowdown") == 1
-        and not (r.get("apply_after") or r.get("min_interval"))
-        and int(r.get("concurrent_trials") or 1) == 1
-    ]
+    alone = [r for r in records if real_time(r) and int(r.get("concurrent_trials") or 1) == 1]
     groups: dict[tuple, dict[int, dict]] = {}
     for r in alone:
         key = (online_cpu(r), r.get("task", "").removeprefix("paper_"), method_name(r) or METHOD)
@@ -2830,13 +2830,7 @@ def loop_section(study, df: pd.DataFrame) -> str:
     ok = with_heldout(study, df)
     online_runs = kept(study, "online")
     usual = usual_cpu(online_runs)
-    runs = [
-        r
-        for r in online_runs
-        if r.get("slowdown") == 1
-        and not (r.get("apply_after") or r.get("min_interval"))
-        and online_cpu(r) == usual
-    ]
+    runs = [r for r in online_runs if real_time(r) and online_cpu(r) == usual]
     key = lambda r: (r.get("task", ""), method_name(r) or METHOD, loop_threads(r))  # noqa: E731
     rank = {t: i for i, t in enumerate(TASK_ORDER)}
     everything = sorted({key(r) for r in records}, key=lambda k: (rank.get(k[0][6:], 99), k[1], -k[2]))
