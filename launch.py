@@ -132,8 +132,9 @@ def build_scene(cfg: DictConfig):
         and "wrist_fit" in demo
         and not str(demo.get("_target_")).endswith(".PaperDemonstration")
     ):
+        task = cfg.task.get("name") or str(cfg.task.get("_target_", "?")).rsplit(".", 1)[-1]
         raise ValueError(
-            f"retarget=wrist: task {cfg.task.get('name', '?')!r} has no retargeted demonstration to correct "
+            f"retarget=wrist: task {task!r} has no retargeted demonstration to correct "
             f"(its demonstration is {demo.get('_target_')}); use it with a paper task (task=paper_*)"
         )
     hand = instantiate(cfg.hand)

@@ -273,9 +273,11 @@ def test_joint_values_beyond_the_limits_are_refused(tmp_path: Path) -> None:
 def test_a_reference_of_another_task_is_refused_by_the_trial_path(tmp_path: Path, scene_for) -> None:
     """Seen before the fix: a bottle reference given to the apple task ran to a status-ok record."""
     from contactmpc.reference.source import get_reference
+    from tests.helpers import static_reference
 
-    bottle = scene_for("bottle")
-    path = get_reference(bottle, None).save(tmp_path / "bottle.npz")
+    # a short reference of the bottle (not a synthesised one: what the trial path reads is the same)
+    path = static_reference(scene_for("bottle"), duration=0.2, frames=6).save(tmp_path / "bottle.npz")
+    get_reference(scene_for("bottle", f"task.reference_path={path}"))  # the bottle's own: accepted
     apple = scene_for("apple", f"task.reference_path={path}")
     with pytest.raises(ReferenceError) as err:
         get_reference(apple)

@@ -82,6 +82,7 @@ def test_synthetic_task_refuses_it_in_one_line(repo_root: Path, tmp_path: Path) 
     assert proc.returncode != 0 and lines and "retarget=wrist" in lines[-1] and "paper" in lines[-1], (
         proc.stderr[-2000:]
     )
+    assert "task 'AppleTask'" in lines[-1], lines[-1]  # the task named, not '?'
 
 
 @needs_data
