@@ -823,6 +823,12 @@ LEVER_TEXT = {
     "schedule): the control points after the last expected contact get the sampling noise of before it, "
     "so the plans choose how the hand lets go by the object's tracking cost after it",
     "sampler.release.open=2.5": "the fingers open over 2.5 s (`sampler.release.open`; the method's 1 s)",
+    "sampler.release.open=4.0": "the fingers open over 4 s (`sampler.release.open`; the method's 1 s)",
+    "sampler.release.noise=0.0": "the release a schedule (`sampler.release.noise`; the method's 1, a "
+    "search): no sampling noise on the control points after the last expected contact, so the hand opens "
+    "as the release nominal does, whatever the plans' samples",
+    "sampler.release.blend=3.0": "the release reset eases the committed control points into the release "
+    "nominal over 3 s (`sampler.release.blend`; the method's 1 s)",
 }
 
 
