@@ -827,6 +827,8 @@ LEVER_TEXT = {
     "sampler.release.noise=0.0": "the release a schedule (`sampler.release.noise`; the method's 1, a "
     "search): no sampling noise on the control points after the last expected contact, so the hand opens "
     "as the release nominal does, whatever the plans' samples",
+    "sampler.release.open_to=approach": "the fingers open to the reference's first pose, the approach's "
+    "pre-shape (`sampler.release.open_to`; the method's flat hand)",
     "sampler.release.blend=3.0": "the release reset eases the committed control points into the release "
     "nominal over 3 s (`sampler.release.blend`; the method's 1 s)",
 }
