@@ -15,7 +15,10 @@ after that last contact, and how:
   (:func:`backed_off`);
 - ``reset``: the planner's committed control points go back to that nominal at the last contact;
 - ``noise``: the sampling noise after the last contact, as a fraction of the space's;
-- ``window``: the wrist is also sampled around the last contact.
+- ``window``: the wrist is also sampled around the last contact;
+- ``retract``: the hand lets go by a law of its measured state instead of the plans
+  (:func:`retraction`): the grip's squeeze dropped, each contact point moved off along its normal (and
+  with ``retract_away`` the wrist moved off the object).
 
 Every option at its default leaves the paper's method as it is.
 """
@@ -24,9 +27,10 @@ from __future__ import annotations
 
 from typing import Annotated
 
+import mujoco
 import numpy as np
 
-from contactmpc.validate import ConfigError, Ge, OneOf, checked
+from contactmpc.validate import ConfigError, Ge, Gt, OneOf, checked
 
 
 def time_window(name: str, window: tuple[float, float] | None) -> tuple[float, float] | None:
@@ -100,6 +104,64 @@ def backed_off(
     return np.asarray(curves, float) + w * np.asarray(offset, float)
 
 
+RETRACT_WAIT = 0.5  # s after the fingers' retraction before the wrist moves off (``retract``)
+RETRACT_MOVE = 2.0  # s over which the wrist moves off the object (``retract``)
+
+
+def retraction(
+    model: mujoco.MjModel, data: mujoco.MjData, index, distance: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How the hand lets go of the object it touches in ``data`` (``mj_forward`` done): where it is, how
+    its fingers retract and which way its wrist leaves.
+
+    Each hand-object contact point is to move ``distance`` metres away from the object along the contact
+    normal; the finger joints' change that does it for all of them at once is the damped least-squares
+    solution through the contact points' Jacobians (the wrist still). The wrist's way off is from the
+    object's (first) body toward the hand's root; on an object without a free body (an articulation)
+    with its joints' directions of motion at that body taken out, so the hand that moves off does not
+    drag the object along its joint.
+
+    Args:
+        model, data: the planning model and a state of it.
+        index: the scene's :class:`~contactmpc.scene.SceneIndex`.
+        distance: metres each contact point retracts.
+
+    Returns:
+        ``(q, dq, away)``: (J,) the hand's measured joint configuration; (J,) the change of its targets
+        that retracts the fingers (zero on the wrist); (3,) the unit direction the wrist leaves along.
+    """
+    q = data.qpos[index.hand_qpos].copy()
+    fingers = np.asarray(index.hand_dof)[6:]
+    on_object = np.asarray(index.object_body_mask, bool)
+    rows, rhs = [], []
+    for i in range(data.ncon):
+        c = data.contact[i]
+        b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
+        if on_object[b1] == on_object[b2]:
+            continue
+        hand_body = b1 if on_object[b2] else b2
+        into_object = np.array(c.frame[:3]) * (1.0 if on_object[b2] else -1.0)  # frame: geom1 to geom2
+        jacp = np.zeros((3, model.nv))
+        mujoco.mj_jac(model, data, jacp, None, c.pos, hand_body)
+        rows.append(jacp[:, fingers])
+        rhs.append(-distance * into_object)
+    dq = np.zeros(len(q))
+    if rows:
+        J, b = np.vstack(rows), np.concatenate(rhs)
+        dq[6:] = J.T @ np.linalg.solve(J @ J.T + 1e-4 * np.eye(len(b)), b)
+    body = int(index.object_bodies[0])
+    away = data.xpos[index.root_body] - data.xpos[body]
+    if len(index.object_dof) and not (model.jnt_type[model.body_jntadr[body]] == mujoco.mjtJoint.mjJNT_FREE):
+        jacp = np.zeros((3, model.nv))
+        mujoco.mj_jac(model, data, jacp, None, data.xpos[body], body)
+        motion = jacp[:, np.asarray(index.object_dof)]
+        u, sigma, _ = np.linalg.svd(motion, full_matrices=False)
+        basis = u[:, sigma > 1e-9]  # the directions the object's joints move its body along
+        away = away - basis @ (basis.T @ away)
+    norm = np.linalg.norm(away)
+    return q, dq, (away / norm if norm > 1e-9 else np.zeros(3))
+
+
 class ReleaseSchedule:
     """What the sampler's nominal and noise do after the reference's last expected contact.
 
@@ -154,6 +216,19 @@ class ReleaseSchedule:
             point's Greville abscissa, so the grip the plans walked into eases into the opening instead
             of jumping to it (on the apple the jump rolls the object the hand just set down); 0 (the
             default): the nominal at once.
+        retract: metres each finger's contact point moves off the object (needs ``reset``): from the
+            first plan at or after the reference's last expected contact, the hand's targets no longer
+            come from the plans but from the state that plan starts from (:func:`retraction`): every
+            joint at its measured angle (the squeeze of the grip dropped, the wrist held), each finger
+            in contact retracting its contact point this far along the contact normal over
+            ``retract_time`` (and, with ``retract_away``, :data:`RETRACT_WAIT` later, the wrist moving
+            off the object over :data:`RETRACT_MOVE`). Where the object has nothing to stop it (the authors'
+            frictionless doorknob slide), fingers that open on a schedule or a search pinch and drag it
+            as they go. 0 (the default): the plans' release.
+        retract_time: seconds over which the fingers retract.
+        retract_away: metres the wrist moves off the object after the fingers' retraction; 0 (the
+            default): the wrist stays where it was measured (a wrist that moves off can sweep a finger
+            still hooked behind the object across it).
     """
 
     @checked
@@ -169,6 +244,9 @@ class ReleaseSchedule:
         noise: Annotated[float, Ge(0)] = 1.0,
         window: tuple[float, float] | None = None,
         blend: Annotated[float, Ge(0)] = 0.0,
+        retract: Annotated[float, Ge(0)] = 0.0,
+        retract_time: Annotated[float, Gt(0)] = 1.0,
+        retract_away: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         self.pause = float(pause)
         self.hold = float(hold)
@@ -182,6 +260,11 @@ class ReleaseSchedule:
         self.noise = float(noise)
         self.blend = float(blend)
         self.window = time_window("sampler.release.window", window)
+        self.retract = float(retract)
+        if self.retract > 0.0 and not reset:
+            raise ConfigError("sampler.release.retract needs sampler.release.reset (it acts at the release)")
+        self.retract_time = float(retract_time)
+        self.retract_away = float(retract_away)
 
     def __repr__(self) -> str:
         fields = (
@@ -195,6 +278,9 @@ class ReleaseSchedule:
             "noise",
             "window",
             "blend",
+            "retract",
+            "retract_time",
+            "retract_away",
         )
         return f"ReleaseSchedule({', '.join(f'{k}={getattr(self, k)!r}' for k in fields)})"
 
@@ -249,3 +335,14 @@ class ReleaseSchedule:
         if self.open_to == "flat":
             target = np.clip(0.0, *np.asarray(finger_ranges).T)
         return opened(times, fingers, last_contact, self.open, target)
+
+    def retracted(
+        self, times: np.ndarray, start: float, q: np.ndarray, dq: np.ndarray, away: np.ndarray
+    ) -> np.ndarray:
+        """(N, J) the hand's targets at control ``times`` (N,) of a retraction (``retract``) that began at
+        control time ``start`` from :func:`retraction`'s ``q``, ``dq`` and ``away``."""
+        since = np.asarray(times, float)[:, None] - start
+        out = q + np.clip(since / self.retract_time, 0.0, 1.0) * dq
+        off = np.clip((since - self.retract_time - RETRACT_WAIT) / RETRACT_MOVE, 0.0, 1.0)
+        out[:, :3] += off * self.retract_away * np.asarray(away, float)
+        return out

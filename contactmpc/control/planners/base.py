@@ -25,7 +25,7 @@ from contactmpc.control.grip import Grip
 from contactmpc.control.guidance import CONTROL_SPEC, ObjectGuidance
 from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.problem import Problem
-from contactmpc.control.release import time_window
+from contactmpc.control.release import retraction, time_window
 from contactmpc.control.robust import ModelEnsemble
 from contactmpc.control.rollout import RolloutEngine
 from contactmpc.validate import ConfigError, Ge, Gt, checked
@@ -405,6 +405,8 @@ class Planner:
         self._release_at = problem.last_contact if problem.release_theta is not None else None
         # sampler.release.hold: that long before, the committed wrist control points go to the release
         # nominal's (which stands still from then), once (None: never)
+        # sampler.release.retract: (start, q, dq, away) once the hand lets go by the retraction (None: not)
+        self._retract = None
         hold = getattr(getattr(problem.space, "release", None), "hold", 0.0)
         self._hold_at = self._release_at - hold if self._release_at is not None and hold > 0.0 else None
         # approach_reset: before the first expected contact, the committed control points from then on go
@@ -577,7 +579,24 @@ class Planner:
         theta = self.theta if theta is None else theta
         s = self.reference_time(times)
         u = self.problem.space.controls(theta, self.problem.spline.basis(s))
-        return u if self._grip is None else self.gripped(u, self.grip_at(s))
+        u = u if self._grip is None else self.gripped(u, self.grip_at(s))
+        if self._retract is not None:  # the hand lets go by the retraction from its start on
+            later = np.asarray(times, float) >= self._retract[0] - 1e-9
+            if later.any():
+                u = np.array(u, copy=True)
+                u[later] = self.problem.space.release.retracted(np.asarray(times)[later], *self._retract)
+        return u
+
+    def retract(self, t: float, state: np.ndarray) -> None:
+        """(``sampler.release.retract``) From control time ``t`` on, the hand's targets are the
+        retraction (:func:`~contactmpc.control.release.retraction`) from ``state``, read in the planning
+        model, instead of the committed policy's."""
+        scene = self.problem.scene
+        m = scene.planner_model
+        d = mujoco.MjData(m)
+        mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(m, d)
+        self._retract = (float(t), *retraction(m, d, scene.index, self.problem.space.release.retract))
 
     def grip_at(self, times) -> np.ndarray:
         """(N, J) the grip's offsets at reference ``times`` (N,) (the nearest grid step, clipped to the
@@ -784,6 +803,8 @@ class Planner:
             self.release(self._hold_at, wrist_only=True)
         if self._release_at is not None and s >= self._release_at - 1e-9:
             self.release()
+            if self.problem.space.release.retract > 0.0:
+                self.retract(takes_effect if ahead and self.compensate_latency else t, state)
         if self.carry_gain:
             self.carry(t, s, state)
         if self.grip is not None and self.grip.during == "touched":
