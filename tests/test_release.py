@@ -770,3 +770,141 @@ def test_plan_latencies_count_the_plans_a_trial_ran_not_its_whole_schedule():
     cut = {k: v[:30] for k, v in series.items()}  # the log of a trial that stopped at 1.45 s
     short = summarize(cut, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["plan_latencies"]
     assert short == {"0.050": 10, "0.150": 20} and sum(short.values()) == len(cut["time"])
+
+
+PINCH = """
+<mujoco>
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <body name="root" pos="0 0 0.2">
+      <joint name="x" type="slide" axis="1 0 0"/><joint name="y" type="slide" axis="0 1 0"/>
+      <joint name="z" type="slide" axis="0 0 1"/><joint name="rx" axis="1 0 0"/>
+      <joint name="ry" axis="0 1 0"/><joint name="rz" axis="0 0 1"/>
+      <geom type="box" size="0.05 0.02 0.01"/>
+      <body name="left" pos="-0.04 0 -0.02">
+        <joint name="l" axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0 0 -0.08" size="0.01"/>
+      </body>
+      <body name="right" pos="0.04 0 -0.02">
+        <joint name="r" axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0 0 -0.08" size="0.01"/>
+      </body>
+    </body>
+    <body name="box" pos="0 0 0.13">
+      <joint name="knob" {joint}/><geom type="box" size="0.031 0.02 0.02"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _pinch(joint: str):
+    """A two-finger hand (6 wrist joints, 2 fingers) pinching a box 1 mm deep on each side along x, the
+    box on ``joint``; its model, data (forwarded) and a scene index of the fields the retraction reads."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(PINCH.format(joint=joint))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    box = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "box")
+    index = SimpleNamespace(
+        hand_qpos=np.arange(8),
+        hand_dof=np.arange(8),
+        object_body_mask=np.arange(model.nbody) == box,
+        object_bodies=np.array([box]),
+        root_body=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "root"),
+        object_dof=np.arange(8, model.nv),
+    )
+    return model, data, index
+
+
+def test_the_retraction_moves_each_contact_point_off_along_its_normal():
+    """sampler.release.retract: the fingers' change moves the hand-object contact points ``distance`` off
+    the object along their normals (through the contact Jacobians; the wrist still), so the hand at it
+    touches nothing; the wrist leaves across the slide the object moves on (a free object: straight off)."""
+    import mujoco
+
+    from contactmpc.control.release import retraction
+
+    model, data, index = _pinch('type="slide" axis="1 0 0"')
+    assert data.ncon >= 2
+    q, dq, away = retraction(model, data, index, 0.005)
+    np.testing.assert_array_equal(q, data.qpos[:8])
+    np.testing.assert_array_equal(dq[:6], 0.0)  # the wrist is held
+    off = []
+    for i in range(data.ncon):
+        c = data.contact[i]
+        box_second = model.geom_bodyid[c.geom2] == index.object_bodies[0]  # the frame: geom1 to geom2
+        hand = model.geom_bodyid[c.geom1] if box_second else model.geom_bodyid[c.geom2]
+        into_box = np.array(c.frame[:3]) * (1.0 if box_second else -1.0)
+        jacp = np.zeros((3, model.nv))
+        mujoco.mj_jac(model, data, jacp, None, c.pos, hand)
+        off.append(-(jacp[:, :8] @ dq) @ into_box)
+    # every contact point moves off along its normal, by the distance in the least-squares sense (a hinged
+    # finger touching at two points moves the one further from its hinge more)
+    assert min(off) > 0.0 and 0.8 * 0.005 < np.mean(off) < 1.25 * 0.005, off
+    data.qpos[:8] = q + dq
+    mujoco.mj_forward(model, data)
+    assert data.ncon == 0  # retracted 5 mm from a 1 mm pinch: off the box
+    np.testing.assert_allclose(away, [0.0, 0.0, 1.0], atol=1e-9)  # across the slide (x), toward the palm
+
+    model, data, index = _pinch('type="free"')
+    *_, away = retraction(model, data, index, 0.005)
+    np.testing.assert_allclose(away, [0.0, 0.0, 1.0], atol=1e-9)  # straight off a free object
+
+
+def test_retracted_targets_drop_the_squeeze_then_retract_and_move_off():
+    schedule = ReleaseSchedule(reset=True, retract=0.02, retract_time=1.0, retract_away=0.08)
+    q, dq, away = np.arange(8.0), np.r_[np.zeros(6), 0.4, -0.2], np.array([0.0, 0.6, 0.8])
+    u = schedule.retracted(np.array([2.0, 2.5, 3.0, 3.5, 10.0]), 2.0, q, dq, away)
+    np.testing.assert_allclose(u[0], q)  # at the start: where the hand was measured, no squeeze
+    np.testing.assert_allclose(u[1], q + 0.5 * dq)
+    np.testing.assert_allclose(u[2], q + dq)
+    np.testing.assert_allclose(u[3], q + dq)  # the wait before the wrist moves off
+    np.testing.assert_allclose(u[4, :3], q[:3] + 0.08 * away)
+    np.testing.assert_allclose(u[4, 3:], (q + dq)[3:])
+    with pytest.raises(ConfigError, match=r"^sampler.release.retract needs sampler.release.reset"):
+        ReleaseSchedule(retract=0.02)
+
+
+def test_a_retracting_planner_stops_following_its_plans_at_the_release(scene_for):
+    """From the first plan at or after the reference's last expected contact the targets are the
+    retraction from that plan's state; before it, and without ``retract``, the committed policy's, bit
+    for bit. Real rollouts."""
+    import mujoco
+
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.release import retraction
+    from contactmpc.control.samplers import PCASplineSpace
+    from tests.helpers import rest_state
+
+    scene = scene_for("apple")
+    state = rest_state(scene.plant_model)
+    ref = _letting_go(scene)
+    out = {}
+    for retract in (0.0, 0.02):
+        space = PCASplineSpace(0.2, release=ReleaseSchedule(reset=True, open=0.1, retract=retract))
+        problem = Problem.build(scene, ref, space, TrackingCost(), horizon=0.2, num_control_points=12)
+        planner = PredictiveSampling(num_samples=4, horizon=0.2, nthread=1)
+        planner.bind(problem)
+        rng = np.random.default_rng(0)
+        start = problem.last_contact + 0.005
+        times = np.array([problem.last_contact - 0.3, start, start + 0.5, start + 3.0])
+        before = planner.plan(problem.last_contact - 0.3, state, rng)
+        early = planner.targets(times)
+        planner.plan(start, state, rng)
+        out[retract] = (before.best_cost, early, planner.targets(times))
+        planner.close()
+    (cost0, early0, late0), (cost1, early1, late1) = out[0.0], out[0.02]
+    assert cost0 == cost1  # the same plans until the release
+    np.testing.assert_array_equal(early0, early1)
+    np.testing.assert_array_equal(late0[0], late1[0])  # before the retraction's start: the policy's
+    m = scene.planner_model
+    d = mujoco.MjData(m)
+    mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_forward(m, d)
+    q, dq, _ = retraction(m, d, scene.index, 0.02)
+    np.testing.assert_array_equal(late1[1], state[1 + scene.index.hand_qpos])  # as measured: no squeeze
+    np.testing.assert_allclose(late1[2], q + 0.5 * dq)
+    np.testing.assert_allclose(late1[3], q + dq)  # retracted, the wrist where it was
+    assert not np.allclose(late0[2:], late1[2:])
