@@ -908,3 +908,46 @@ def test_a_retracting_planner_stops_following_its_plans_at_the_release(scene_for
     np.testing.assert_allclose(late1[2], q + 0.5 * dq)
     np.testing.assert_allclose(late1[3], q + dq)  # retracted, the wrist where it was
     assert not np.allclose(late0[2:], late1[2:])
+
+
+def test_retract_again_moves_off_the_contacts_each_later_plan_finds(scene_for):
+    """sampler.release.retract_again: a later plan whose state still has the hand on the object starts a
+    new retraction from the targets then; without it the first retraction goes on. Real rollouts (the
+    apple's rest state, where the hand at its zero pose touches the apple)."""
+    import mujoco
+
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.release import retraction
+    from contactmpc.control.samplers import PCASplineSpace
+    from tests.helpers import rest_state
+
+    scene = scene_for("apple")
+    state = rest_state(scene.plant_model)
+    m = scene.planner_model
+    d = mujoco.MjData(m)
+    mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_forward(m, d)
+    q, dq, _ = retraction(m, d, scene.index, 0.02)
+    assert np.any(dq)  # the state has hand-object contacts
+    out = {}
+    for again in (False, True):
+        schedule = ReleaseSchedule(reset=True, open=0.1, retract=0.02, retract_again=again)
+        problem = Problem.build(
+            scene, _letting_go(scene), PCASplineSpace(0.2, release=schedule), TrackingCost(), horizon=0.2,
+            num_control_points=12,
+        )  # fmt: skip
+        planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1)
+        planner.bind(problem)
+        rng = np.random.default_rng(0)
+        start = problem.last_contact + 0.005
+        planner.plan(start, state, rng)
+        planner.plan(start + 0.3, state, rng)  # the same state: the hand still on the apple
+        out[again] = planner.targets(start + np.array([0.3, 0.8, 1.3, 5.0]))
+        planner.close()
+    np.testing.assert_allclose(out[False][3], q + dq)  # once: retracted, then held
+    now = q + 0.3 * dq  # the targets when the second plan found the hand still there
+    np.testing.assert_allclose(out[True][0], now)
+    np.testing.assert_allclose(out[True][1], now + 0.5 * dq)
+    np.testing.assert_allclose(out[True][3], now + dq)

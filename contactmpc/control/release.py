@@ -226,6 +226,10 @@ class ReleaseSchedule:
             frictionless doorknob slide), fingers that open on a schedule or a search pinch and drag it
             as they go. 0 (the default): the plans' release.
         retract_time: seconds over which the fingers retract.
+        retract_again: at every plan after the retraction began, the hand-object contacts found in that
+            plan's state are retracted in turn, from the targets then (a finger that still rests on the
+            object, or has come back onto it, is moved off too; with ``retract_away``, the wrist's move off
+            starts again from there); ``False``: once, at the release.
         retract_away: metres the wrist moves off the object after the fingers' retraction; 0 (the
             default): the wrist stays where it was measured (a wrist that moves off can sweep a finger
             still hooked behind the object across it).
@@ -247,6 +251,7 @@ class ReleaseSchedule:
         retract: Annotated[float, Ge(0)] = 0.0,
         retract_time: Annotated[float, Gt(0)] = 1.0,
         retract_away: Annotated[float, Ge(0)] = 0.0,
+        retract_again: bool = False,
     ) -> None:
         self.pause = float(pause)
         self.hold = float(hold)
@@ -265,6 +270,7 @@ class ReleaseSchedule:
             raise ConfigError("sampler.release.retract needs sampler.release.reset (it acts at the release)")
         self.retract_time = float(retract_time)
         self.retract_away = float(retract_away)
+        self.retract_again = bool(retract_again)
 
     def __repr__(self) -> str:
         fields = (
@@ -281,6 +287,7 @@ class ReleaseSchedule:
             "retract",
             "retract_time",
             "retract_away",
+            "retract_again",
         )
         return f"ReleaseSchedule({', '.join(f'{k}={getattr(self, k)!r}' for k in fields)})"
 

@@ -587,16 +587,22 @@ class Planner:
                 u[later] = self.problem.space.release.retracted(np.asarray(times)[later], *self._retract)
         return u
 
-    def retract(self, t: float, state: np.ndarray) -> None:
+    def retract(self, t: float, state: np.ndarray, again: bool = False) -> None:
         """(``sampler.release.retract``) From control time ``t`` on, the hand's targets are the
         retraction (:func:`~contactmpc.control.release.retraction`) from ``state``, read in the planning
-        model, instead of the committed policy's."""
+        model, instead of the committed policy's. ``again`` (``retract_again``): the contacts in
+        ``state`` retracted from the targets at ``t`` (none: the retraction goes on as it was)."""
         scene = self.problem.scene
         m = scene.planner_model
         d = mujoco.MjData(m)
         mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         mujoco.mj_forward(m, d)
-        self._retract = (float(t), *retraction(m, d, scene.index, self.problem.space.release.retract))
+        q, dq, away = retraction(m, d, scene.index, self.problem.space.release.retract)
+        if not again:
+            self._retract = (float(t), q, dq, away)
+        elif np.any(dq):
+            now = self.targets(np.array([t]))[0]
+            self._retract = (float(t), now, dq, self._retract[3])
 
     def grip_at(self, times) -> np.ndarray:
         """(N, J) the grip's offsets at reference ``times`` (N,) (the nearest grid step, clipped to the
@@ -805,6 +811,8 @@ class Planner:
             self.release()
             if self.problem.space.release.retract > 0.0:
                 self.retract(takes_effect if ahead and self.compensate_latency else t, state)
+        elif self._retract is not None and self.problem.space.release.retract_again:
+            self.retract(takes_effect if ahead and self.compensate_latency else t, state, again=True)
         if self.carry_gain:
             self.carry(t, s, state)
         if self.grip is not None and self.grip.during == "touched":
