@@ -951,3 +951,33 @@ def test_retract_again_moves_off_the_contacts_each_later_plan_finds(scene_for):
     np.testing.assert_allclose(out[True][0], now)
     np.testing.assert_allclose(out[True][1], now + 0.5 * dq)
     np.testing.assert_allclose(out[True][3], now + dq)
+
+
+def test_the_prediction_follows_the_retraction_not_the_plans(scene_for):
+    """With compensation=predict the plan's start is the planning model rolled forward under what the
+    plant will be given: after the retraction began, its targets, not the committed policy's."""
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.samplers import PCASplineSpace
+    from tests.helpers import rest_state
+
+    scene = scene_for("apple")
+    state = rest_state(scene.plant_model)
+    schedule = ReleaseSchedule(reset=True, open=0.1, retract=0.02)
+    problem = Problem.build(
+        scene, _letting_go(scene), PCASplineSpace(0.2, release=schedule), TrackingCost(), horizon=0.2,
+        num_control_points=12,
+    )  # fmt: skip
+    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1)
+    planner.bind(problem)
+    start = problem.last_contact + 0.005
+    planner.plan(start, state, np.random.default_rng(0))
+    seen = []
+    run = planner.engine.run
+    planner.engine.run = lambda s, ctrl: (seen.append(ctrl.copy()), run(s, ctrl))[1]
+    t = start + 0.2
+    planner.predict(t, state, 0.1)
+    clock = t + np.arange(seen[0].shape[1]) * planner.dt
+    np.testing.assert_array_equal(seen[0][0][:, scene.index.actuators], planner.targets(clock))
+    planner.close()

@@ -709,6 +709,16 @@ class Planner:
         m = n + max(0, int(round(reach / self.dt)))
         times = self.reference_time(t + np.arange(m) * self.dt)
         ctrl = self.controls(self.theta[None], self.problem.spline.basis(times), times)
+        if self._retract is not None:  # the plant follows the retraction, not the committed policy
+            clock = t + np.arange(m) * self.dt
+            later = clock >= self._retract[0] - 1e-9
+            if later.any():
+                steps = np.flatnonzero(later)
+                retracted = ctrl[0, steps]
+                retracted[:, self._actuators] = self.problem.space.release.retracted(
+                    clock[later], *self._retract
+                )
+                ctrl[0, steps] = retracted
         states, _, diverged = self.engine.run(state, ctrl)
         if diverged[0]:
             return t, state
