@@ -226,13 +226,13 @@ class ReleaseSchedule:
             frictionless doorknob slide), fingers that open on a schedule or a search pinch and drag it
             as they go. 0 (the default): the plans' release.
         retract_time: seconds over which the fingers retract.
+        retract_away: metres the wrist moves off the object after the fingers' retraction; 0 (the
+            default): the wrist stays where it was measured (a wrist that moves off can sweep a finger
+            still hooked behind the object across it).
         retract_again: at every plan after the retraction began, the hand-object contacts found in that
             plan's state are retracted in turn, from the targets then (a finger that still rests on the
             object, or has come back onto it, is moved off too; with ``retract_away``, the wrist's move off
             starts again from there); ``False``: once, at the release.
-        retract_away: metres the wrist moves off the object after the fingers' retraction; 0 (the
-            default): the wrist stays where it was measured (a wrist that moves off can sweep a finger
-            still hooked behind the object across it).
     """
 
     @checked

@@ -403,10 +403,10 @@ class Planner:
         # sampler.release.reset: when the reference lets go, the committed control points from then on
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
+        # sampler.release.retract: (start, q, dq, away) once the hand lets go by the retraction (None: not)
+        self._retract, self._retract_data = None, None
         # sampler.release.hold: that long before, the committed wrist control points go to the release
         # nominal's (which stands still from then), once (None: never)
-        # sampler.release.retract: (start, q, dq, away) once the hand lets go by the retraction (None: not)
-        self._retract = None
         hold = getattr(getattr(problem.space, "release", None), "hold", 0.0)
         self._hold_at = self._release_at - hold if self._release_at is not None and hold > 0.0 else None
         # approach_reset: before the first expected contact, the committed control points from then on go
@@ -580,12 +580,20 @@ class Planner:
         s = self.reference_time(times)
         u = self.problem.space.controls(theta, self.problem.spline.basis(s))
         u = u if self._grip is None else self.gripped(u, self.grip_at(s))
-        if self._retract is not None:  # the hand lets go by the retraction from its start on
-            later = np.asarray(times, float) >= self._retract[0] - 1e-9
-            if later.any():
-                u = np.array(u, copy=True)
-                u[later] = self.problem.space.release.retracted(np.asarray(times)[later], *self._retract)
+        later, retracted = self.retracted(times)
+        if len(retracted):  # the hand lets go by the retraction from its start on
+            u = np.array(u, copy=True)
+            u[later] = retracted
         return u
+
+    def retracted(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(later, targets)``: which control ``times`` (N,) come after the retraction's start (bool
+        (N,); ``sampler.release.retract``) and the hand's targets at those (K, J); none before it began."""
+        times = np.asarray(times, float)
+        if self._retract is None:
+            return np.zeros(times.shape, bool), np.empty((0, self.problem.scene.hand.num_joints))
+        later = times >= self._retract[0] - 1e-9
+        return later, self.problem.space.release.retracted(times[later], *self._retract)
 
     def retract(self, t: float, state: np.ndarray, again: bool = False) -> None:
         """(``sampler.release.retract``) From control time ``t`` on, the hand's targets are the
@@ -594,7 +602,9 @@ class Planner:
         ``state`` retracted from the targets at ``t`` (none: the retraction goes on as it was)."""
         scene = self.problem.scene
         m = scene.planner_model
-        d = mujoco.MjData(m)
+        if self._retract_data is None:
+            self._retract_data = mujoco.MjData(m)
+        d = self._retract_data
         mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         mujoco.mj_forward(m, d)
         q, dq, away = retraction(m, d, scene.index, self.problem.space.release.retract)
@@ -709,16 +719,11 @@ class Planner:
         m = n + max(0, int(round(reach / self.dt)))
         times = self.reference_time(t + np.arange(m) * self.dt)
         ctrl = self.controls(self.theta[None], self.problem.spline.basis(times), times)
-        if self._retract is not None:  # the plant follows the retraction, not the committed policy
-            clock = t + np.arange(m) * self.dt
-            later = clock >= self._retract[0] - 1e-9
-            if later.any():
-                steps = np.flatnonzero(later)
-                retracted = ctrl[0, steps]
-                retracted[:, self._actuators] = self.problem.space.release.retracted(
-                    clock[later], *self._retract
-                )
-                ctrl[0, steps] = retracted
+        later, retracted = self.retracted(t + np.arange(m) * self.dt)
+        if len(retracted):  # the plant follows the retraction, not the committed policy
+            rows = ctrl[0, later]
+            rows[:, self._actuators] = retracted
+            ctrl[0, later] = rows
         states, _, diverged = self.engine.run(state, ctrl)
         if diverged[0]:
             return t, state
