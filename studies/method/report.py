@@ -829,7 +829,7 @@ LEVER_TEXT = {
     "as the release nominal does, whatever the plans' samples",
     "sampler.release.open_to=approach": "the fingers open to the reference's first pose, the approach's "
     "pre-shape (`sampler.release.open_to`; the method's flat hand)",
-    "sampler.release.retract_again=true": "the retraction repeated at every later plan whose state has the "
+    "sampler.release.retract_again=True": "the retraction repeated at every later plan whose state has the "
     "hand still on the object (`sampler.release.retract_again`; `release=retract`'s once)",
     "sampler.release.blend=3.0": "the release reset eases the committed control points into the release "
     "nominal over 3 s (`sampler.release.blend`; the method's 1 s)",
