@@ -910,17 +910,31 @@ def test_a_retracting_planner_stops_following_its_plans_at_the_release(scene_for
     assert not np.allclose(late0[2:], late1[2:])
 
 
+def _retracting_planner(scene, **release):
+    """A bound two-sample planner of the letting-go reference whose release retracts 2 cm (``release``:
+    more of the schedule's options); ``(planner, problem)``."""
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.samplers import PCASplineSpace
+
+    schedule = ReleaseSchedule(reset=True, open=0.1, retract=0.02, **release)
+    space = PCASplineSpace(0.2, release=schedule)
+    problem = Problem.build(
+        scene, _letting_go(scene), space, TrackingCost(), horizon=0.2, num_control_points=12
+    )
+    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1)
+    planner.bind(problem)
+    return planner, problem
+
+
 def test_retract_again_moves_off_the_contacts_each_later_plan_finds(scene_for):
     """sampler.release.retract_again: a later plan whose state still has the hand on the object starts a
     new retraction from the targets then; without it the first retraction goes on. Real rollouts (the
     apple's rest state, where the hand at its zero pose touches the apple)."""
     import mujoco
 
-    from contactmpc.control.cost import TrackingCost
-    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
-    from contactmpc.control.problem import Problem
     from contactmpc.control.release import retraction
-    from contactmpc.control.samplers import PCASplineSpace
     from tests.helpers import rest_state
 
     scene = scene_for("apple")
@@ -933,13 +947,7 @@ def test_retract_again_moves_off_the_contacts_each_later_plan_finds(scene_for):
     assert np.any(dq)  # the state has hand-object contacts
     out = {}
     for again in (False, True):
-        schedule = ReleaseSchedule(reset=True, open=0.1, retract=0.02, retract_again=again)
-        problem = Problem.build(
-            scene, _letting_go(scene), PCASplineSpace(0.2, release=schedule), TrackingCost(), horizon=0.2,
-            num_control_points=12,
-        )  # fmt: skip
-        planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1)
-        planner.bind(problem)
+        planner, problem = _retracting_planner(scene, retract_again=again)
         rng = np.random.default_rng(0)
         start = problem.last_contact + 0.005
         planner.plan(start, state, rng)
@@ -956,21 +964,11 @@ def test_retract_again_moves_off_the_contacts_each_later_plan_finds(scene_for):
 def test_the_prediction_follows_the_retraction_not_the_plans(scene_for):
     """With compensation=predict the plan's start is the planning model rolled forward under what the
     plant will be given: after the retraction began, its targets, not the committed policy's."""
-    from contactmpc.control.cost import TrackingCost
-    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
-    from contactmpc.control.problem import Problem
-    from contactmpc.control.samplers import PCASplineSpace
     from tests.helpers import rest_state
 
     scene = scene_for("apple")
     state = rest_state(scene.plant_model)
-    schedule = ReleaseSchedule(reset=True, open=0.1, retract=0.02)
-    problem = Problem.build(
-        scene, _letting_go(scene), PCASplineSpace(0.2, release=schedule), TrackingCost(), horizon=0.2,
-        num_control_points=12,
-    )  # fmt: skip
-    planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1)
-    planner.bind(problem)
+    planner, problem = _retracting_planner(scene)
     start = problem.last_contact + 0.005
     planner.plan(start, state, np.random.default_rng(0))
     seen = []

@@ -296,7 +296,7 @@ class Planner:
         self._carry_at: float | None = None  # the control time of the last plan (carry_gain)
         self.grip = grip
         self._grip: np.ndarray | None = None  # (N, J) the grip's offsets on the track's grid (bind)
-        self._grip_data = None  # (grip touched) scratch data for the links' contacts
+        self._state_data = None  # scratch data of the planning model forwarded at a state (_forwarded)
         # the reference's clock (pace_lag): from control time t0 at reference time s0, at rate until
         # control time t1, then with control time
         self._clock = (0.0, 0.0, 1.0, np.inf)
@@ -404,7 +404,7 @@ class Planner:
         # go to the release nominal, once (None: never)
         self._release_at = problem.last_contact if problem.release_theta is not None else None
         # sampler.release.retract: (start, q, dq, away) once the hand lets go by the retraction (None: not)
-        self._retract, self._retract_data = None, None
+        self._retract = None
         # sampler.release.hold: that long before, the committed wrist control points go to the release
         # nominal's (which stands still from then), once (None: never)
         hold = getattr(getattr(problem.space, "release", None), "hold", 0.0)
@@ -435,7 +435,7 @@ class Planner:
         self.dt = problem.scene.planner_model.opt.timestep
         self._at_horizon(self.horizon)
         self._basis_cache: dict[tuple[int, int], np.ndarray] = {}
-        self._grip_data = self._carry_data = None  # scratch data of the planning model
+        self._state_data = self._carry_data = None  # scratch data of the planning model
         if self.grip is not None:
             track, hand = problem.track, problem.scene.hand
             carried = self.grip.carried(problem.scene.task.layout, track.object_qpos)
@@ -601,18 +601,23 @@ class Planner:
         model, instead of the committed policy's. ``again`` (``retract_again``): the contacts in
         ``state`` retracted from the targets at ``t`` (none: the retraction goes on as it was)."""
         scene = self.problem.scene
-        m = scene.planner_model
-        if self._retract_data is None:
-            self._retract_data = mujoco.MjData(m)
-        d = self._retract_data
-        mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        mujoco.mj_forward(m, d)
-        q, dq, away = retraction(m, d, scene.index, self.problem.space.release.retract)
+        d = self._forwarded(state)
+        q, dq, away = retraction(scene.planner_model, d, scene.index, self.problem.space.release.retract)
         if not again:
             self._retract = (float(t), q, dq, away)
         elif np.any(dq):
             now = self.targets(np.array([t]))[0]
             self._retract = (float(t), now, dq, self._retract[3])
+
+    def _forwarded(self, state: np.ndarray) -> mujoco.MjData:
+        """The planning model's scratch data at the full-physics ``state``, forwarded (contacts,
+        kinematics); overwritten by the next call."""
+        m = self.problem.scene.planner_model
+        if self._state_data is None:
+            self._state_data = mujoco.MjData(m)
+        mujoco.mj_setState(m, self._state_data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(m, self._state_data)
+        return self._state_data
 
     def grip_at(self, times) -> np.ndarray:
         """(N, J) the grip's offsets at reference ``times`` (N,) (the nearest grid step, clipped to the
@@ -629,13 +634,7 @@ class Planner:
         in the planning model) at reference time ``s``, while the reference expects their contact; a
         finger stays marked. Returns (F,) bool: the fingers marked now."""
         scene = self.problem.scene
-        m = scene.planner_model
-        if self._grip_data is None:
-            self._grip_data = mujoco.MjData(m)
-        d = self._grip_data
-        mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        mujoco.mj_forward(m, d)
-        touching = scene.link_contacts(d)
+        touching = scene.link_contacts(self._forwarded(state))
         expected = self._grip_weights[self.problem.track.index(s)] > 0.0
         new = np.array([touching[links].any() for links, _ in self._grip_fingers]) & expected
         new &= ~np.isfinite(self._touched)
