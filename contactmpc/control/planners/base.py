@@ -580,18 +580,16 @@ class Planner:
         s = self.reference_time(times)
         u = self.problem.space.controls(theta, self.problem.spline.basis(s))
         u = u if self._grip is None else self.gripped(u, self.grip_at(s))
-        later, retracted = self.retracted(times)
-        if len(retracted):  # the hand lets go by the retraction from its start on
+        if self._retract is not None:  # the hand lets go by the retraction from its start on
+            later, retracted = self.retracted(times)
             u = np.array(u, copy=True)
             u[later] = retracted
         return u
 
     def retracted(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(later, targets)``: which control ``times`` (N,) come after the retraction's start (bool
-        (N,); ``sampler.release.retract``) and the hand's targets at those (K, J); none before it began."""
+        """``(later, targets)`` once the retraction began (``sampler.release.retract``): which control
+        ``times`` (N,) come after its start (bool (N,)) and the hand's targets at those (K, J)."""
         times = np.asarray(times, float)
-        if self._retract is None:
-            return np.zeros(times.shape, bool), np.empty((0, self.problem.scene.hand.num_joints))
         later = times >= self._retract[0] - 1e-9
         return later, self.problem.space.release.retracted(times[later], *self._retract)
 
@@ -718,8 +716,8 @@ class Planner:
         m = n + max(0, int(round(reach / self.dt)))
         times = self.reference_time(t + np.arange(m) * self.dt)
         ctrl = self.controls(self.theta[None], self.problem.spline.basis(times), times)
-        later, retracted = self.retracted(t + np.arange(m) * self.dt)
-        if len(retracted):  # the plant follows the retraction, not the committed policy
+        if self._retract is not None:  # the plant follows the retraction, not the committed policy
+            later, retracted = self.retracted(t + np.arange(m) * self.dt)
             rows = ctrl[0, later]
             rows[:, self._actuators] = retracted
             ctrl[0, later] = rows
