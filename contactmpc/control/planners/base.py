@@ -714,10 +714,11 @@ class Planner:
         if n < 1 or self.engine is None:
             return t, state
         m = n + max(0, int(round(reach / self.dt)))
-        times = self.reference_time(t + np.arange(m) * self.dt)
+        clock = t + np.arange(m) * self.dt
+        times = self.reference_time(clock)
         ctrl = self.controls(self.theta[None], self.problem.spline.basis(times), times)
         if self._retract is not None:  # the plant follows the retraction, not the committed policy
-            later, retracted = self.retracted(t + np.arange(m) * self.dt)
+            later, retracted = self.retracted(clock)
             rows = ctrl[0, later]
             rows[:, self._actuators] = retracted
             ctrl[0, later] = rows
