@@ -782,14 +782,14 @@ PINCH = """
       <joint name="ry" axis="0 1 0"/><joint name="rz" axis="0 0 1"/>
       <geom type="box" size="0.05 0.02 0.01"/>
       <body name="left" pos="-0.04 0 -0.02">
-        <joint name="l" axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0 0 -0.08" size="0.01"/>
+        <joint name="l" axis="0 1 0"/><geom name="l" type="capsule" fromto="0 0 0 0 0 -0.08" size="0.01"/>
       </body>
       <body name="right" pos="0.04 0 -0.02">
-        <joint name="r" axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0 0 -0.08" size="0.01"/>
+        <joint name="r" axis="0 1 0"/><geom name="r" type="capsule" fromto="0 0 0 0 0 -0.08" size="0.01"/>
       </body>
     </body>
     <body name="box" pos="0 0 0.13">
-      <joint name="knob" {joint}/><geom type="box" size="0.031 0.02 0.02"/>
+      <joint name="knob" {joint}/><geom name="b" type="box" size="0.031 0.02 0.02"/>
     </body>
   </worldbody>
 </mujoco>
@@ -849,6 +849,35 @@ def test_the_retraction_moves_each_contact_point_off_along_its_normal():
     model, data, index = _pinch('type="free"')
     *_, away = retraction(model, data, index, 0.005)
     np.testing.assert_allclose(away, [0.0, 0.0, 1.0], atol=1e-9)  # straight off a free object
+
+
+def test_the_retraction_margin_moves_off_a_finger_resting_just_apart():
+    """sampler.release.retract_margin: with the box shifted so that one finger pinches it and the other
+    is half a millimetre off, the retraction leaves the one apart where it is; with a 1 mm margin that one
+    counts as touching and moves off too, along the line to the box, and the other retracts as before."""
+    import mujoco
+
+    from contactmpc.control.release import retraction
+
+    model, data, index = _pinch('type="slide" axis="1 0 0"')
+    data.qpos[8] = 0.0015  # the box 1.5 mm toward the right finger: 2.5 mm into it, 0.5 mm off the left
+    mujoco.mj_forward(model, data)
+    left, right, box = (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("l", "r", "b"))
+
+    def gap(q, geom):
+        data.qpos[:8] = q
+        mujoco.mj_forward(model, data)
+        return mujoco.mj_geomDistance(model, data, geom, box, 0.1, None)
+
+    q0 = data.qpos[:8].copy()
+    assert 0.0 < gap(q0, left) < 0.001 and gap(q0, right) < 0.0
+    _, dq, _ = retraction(model, data, index, 0.005)
+    assert dq[6] == 0.0 and dq[7] != 0.0  # only the finger in contact moves
+    _, dq_margin, _ = retraction(model, data, index, 0.005, margin=0.001)
+    assert gap(q0 + dq_margin, left) > gap(q0, left) + 0.0015  # the resting finger moved off
+    np.testing.assert_allclose(dq_margin[7], dq[7], rtol=1e-3)  # the pinching one retracts as before
+    _, dq_far, _ = retraction(model, data, index, 0.005, margin=0.0004)
+    np.testing.assert_array_equal(dq_far, dq)  # 0.5 mm off is beyond a 0.4 mm margin
 
 
 def test_retracted_targets_drop_the_squeeze_then_retract_and_move_off():

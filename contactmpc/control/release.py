@@ -109,7 +109,7 @@ RETRACT_MOVE = 2.0  # s over which the wrist moves off the object (``retract``)
 
 
 def retraction(
-    model: mujoco.MjModel, data: mujoco.MjData, index, distance: float
+    model: mujoco.MjModel, data: mujoco.MjData, index, distance: float, margin: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """How the hand lets go of the object it touches in ``data`` (``mj_forward`` done): where it is, how
     its fingers retract and which way its wrist leaves.
@@ -125,6 +125,10 @@ def retraction(
         model, data: the planning model and a state of it.
         index: the scene's :class:`~contactmpc.scene.SceneIndex`.
         distance: metres each contact point retracts.
+        margin: metres: a hand geom this close to an object geom without touching it counts as a
+            contact too, at its nearest point, along the line to the object's (``mj_geomDistance``); a
+            link resting on the object at a hair's breadth in this model may touch it in another (the
+            plant's). 0: the model's contacts only.
 
     Returns:
         ``(q, dq, away)``: (J,) the hand's measured joint configuration; (J,) the change of its targets
@@ -133,16 +137,22 @@ def retraction(
     q = data.qpos[index.hand_qpos].copy()
     fingers = np.asarray(index.hand_dof)[6:]
     on_object = np.asarray(index.object_body_mask, bool)
-    rows, rhs = [], []
+    points = []  # (hand body, point, unit normal into the object)
+    touching = set()
     for i in range(data.ncon):
         c = data.contact[i]
         b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
         if on_object[b1] == on_object[b2]:
             continue
-        hand_body = b1 if on_object[b2] else b2
+        touching.add((c.geom1, c.geom2) if on_object[b2] else (c.geom2, c.geom1))
         into_object = np.array(c.frame[:3]) * (1.0 if on_object[b2] else -1.0)  # frame: geom1 to geom2
+        points.append((b1 if on_object[b2] else b2, np.array(c.pos), into_object))
+    if margin > 0.0:
+        points += _near(model, data, index, margin, touching)
+    rows, rhs = [], []
+    for hand_body, point, into_object in points:
         jacp = np.zeros((3, model.nv))
-        mujoco.mj_jac(model, data, jacp, None, c.pos, hand_body)
+        mujoco.mj_jac(model, data, jacp, None, point, hand_body)
         rows.append(jacp[:, fingers])
         rhs.append(-distance * into_object)
     dq = np.zeros(len(q))
@@ -160,6 +170,33 @@ def retraction(
         away = away - basis @ (basis.T @ away)
     norm = np.linalg.norm(away)
     return q, dq, (away / norm if norm > 1e-9 else np.zeros(3))
+
+
+def _near(model: mujoco.MjModel, data: mujoco.MjData, index, margin: float, touching: set) -> list:
+    """(:func:`retraction`'s ``margin``) ``(hand body, point, unit normal into the object)`` of each pair of
+    a hand geom (the root body's subtree) and an object geom that may collide, not already in ``touching``
+    (``(hand geom, object geom)`` pairs), whose surfaces are closer than ``margin`` but apart: the hand
+    geom's nearest point and the direction to the object's."""
+    on_object = np.asarray(index.object_body_mask, bool)
+    body = model.geom_bodyid
+    collides = (model.geom_contype | model.geom_conaffinity) > 0
+    hand = np.flatnonzero(collides & (model.body_rootid[body] == model.body_rootid[index.root_body]))
+    objects = np.flatnonzero(collides & on_object[body])
+    out, fromto = [], np.zeros(6)
+    for g in hand:
+        for o in objects:
+            if (g, o) in touching:
+                continue
+            if not (
+                model.geom_contype[g] & model.geom_conaffinity[o]
+                or model.geom_contype[o] & model.geom_conaffinity[g]
+            ):
+                continue
+            dist = mujoco.mj_geomDistance(model, data, int(g), int(o), margin, fromto)
+            gap = fromto[3:] - fromto[:3]
+            if 0.0 <= dist < margin and np.linalg.norm(gap) > 1e-9:
+                out.append((int(body[g]), fromto[:3].copy(), gap / np.linalg.norm(gap)))
+    return out
 
 
 class ReleaseSchedule:
@@ -233,6 +270,11 @@ class ReleaseSchedule:
             plan's state are retracted in turn, from the targets then (a finger that still rests on the
             object, or has come back onto it, is moved off too; with ``retract_away``, the wrist's move off
             starts again from there); ``False``: once, at the release.
+        retract_margin: metres: a finger this close to the object counts as touching it, for the
+            retraction and for ``retract_again`` (:func:`retraction`'s ``margin``): a link that rests on
+            the object in the plant at a hair's breadth may be just apart in the planning model, where
+            the contacts are read, and would be left there. 0 (the default): the planning model's
+            contacts only.
     """
 
     @checked
@@ -252,6 +294,7 @@ class ReleaseSchedule:
         retract_time: Annotated[float, Gt(0)] = 1.0,
         retract_away: Annotated[float, Ge(0)] = 0.0,
         retract_again: bool = False,
+        retract_margin: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
         self.pause = float(pause)
         self.hold = float(hold)
@@ -271,6 +314,7 @@ class ReleaseSchedule:
         self.retract_time = float(retract_time)
         self.retract_away = float(retract_away)
         self.retract_again = bool(retract_again)
+        self.retract_margin = float(retract_margin)
 
     def __repr__(self) -> str:
         fields = (
@@ -288,6 +332,7 @@ class ReleaseSchedule:
             "retract_time",
             "retract_away",
             "retract_again",
+            "retract_margin",
         )
         return f"ReleaseSchedule({', '.join(f'{k}={getattr(self, k)!r}' for k in fields)})"
 

@@ -833,6 +833,9 @@ LEVER_TEXT = {
     "hand still on the object (`sampler.release.retract_again`; `release=retract`'s once)",
     "sampler.release.blend=3.0": "the release reset eases the committed control points into the release "
     "nominal over 3 s (`sampler.release.blend`; the method's 1 s)",
+    "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
+    "contact (`sampler.release.hold`; `release=halt`'s 2 s), so a set-down the reference still makes in "
+    "its last 2 s of contact (the bottle's) is not stopped short in the air",
 }
 
 

@@ -600,7 +600,8 @@ class Planner:
         ``state`` retracted from the targets at ``t`` (none: the retraction goes on as it was)."""
         scene = self.problem.scene
         d = self._forwarded(state)
-        q, dq, away = retraction(scene.planner_model, d, scene.index, self.problem.space.release.retract)
+        release = self.problem.space.release
+        q, dq, away = retraction(scene.planner_model, d, scene.index, release.retract, release.retract_margin)
         if not again:
             self._retract = (float(t), q, dq, away)
         elif np.any(dq):
