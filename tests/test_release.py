@@ -990,6 +990,50 @@ def test_retract_again_moves_off_the_contacts_each_later_plan_finds(scene_for):
     np.testing.assert_allclose(out[True][3], now + dq)
 
 
+def test_articulated_only_lets_a_free_object_go_as_without_the_hold_and_the_retraction(scene_for):
+    """sampler.release.articulated_only: on the apple (a free body) the problem's schedule drops the wrist's
+    hold and the retraction, and its nominals, plans and targets are those of the same schedule without
+    them, bit for bit (real rollouts); the space it was given is left as it was. On the doorknob (a knob on
+    joints) the schedule is kept."""
+    from contactmpc.control.cost import TrackingCost
+    from contactmpc.control.planners.predictive_sampling import PredictiveSampling
+    from contactmpc.control.problem import Problem
+    from contactmpc.control.release import has_free_body
+    from contactmpc.control.samplers import PCASplineSpace
+    from tests.helpers import rest_state
+
+    base = dict(reset=True, open=0.1, blend=0.1)
+    rule = dict(hold=0.2, retract=0.02, retract_again=True, retract_margin=0.001)
+    doorknob = scene_for("doorknob")
+    assert not has_free_body(doorknob.planner_model, doorknob.index)
+    space = PCASplineSpace(0.2, release=ReleaseSchedule(**base, **rule, articulated_only=True))
+    problem = Problem.build(doorknob, _letting_go(doorknob), space, TrackingCost(), horizon=0.2)
+    assert problem.space is space and problem.space.release.retract == 0.02
+
+    scene = scene_for("apple")
+    assert has_free_body(scene.planner_model, scene.index)
+    state = rest_state(scene.plant_model)
+    out = []
+    for schedule in (ReleaseSchedule(**base, **rule, articulated_only=True), ReleaseSchedule(**base)):
+        space = PCASplineSpace(0.2, release=schedule)
+        problem = Problem.build(
+            scene, _letting_go(scene), space, TrackingCost(), horizon=0.2, num_control_points=12
+        )
+        assert space.release is schedule  # the given space keeps its schedule
+        assert problem.space.release.hold == 0.0 and problem.space.release.retract == 0.0
+        planner = PredictiveSampling(num_samples=4, horizon=0.2, nthread=1)
+        planner.bind(problem)
+        rng = np.random.default_rng(3)
+        for t in (problem.last_contact - 0.25, problem.last_contact + 0.005, problem.last_contact + 0.3):
+            planner.plan(t, state, rng)
+        out.append(
+            (problem.theta0, problem.release_theta, planner.theta, planner.targets(np.linspace(0, 1, 9)))
+        )
+        planner.close()
+    for a, b in zip(*out, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_the_prediction_follows_the_retraction_not_the_plans(scene_for):
     """With compensation=predict the plan's start is the planning model rolled forward under what the
     plant will be given: after the retraction began, its targets, not the committed policy's."""

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from contactmpc.control.cost import TrackingCost
+from contactmpc.control.release import has_free_body
 from contactmpc.control.samplers import SplineSpace
 from contactmpc.control.track import ReferenceTrack
 from contactmpc.reference.bspline import UniformBSpline
@@ -88,6 +89,10 @@ class Problem:
             duration: control time to simulate (s); ``None`` = the slowed reference's duration.
         """
         task = scene.task
+        release = space.release.for_object(has_free_body(scene.planner_model, scene.index))
+        if release is not space.release:  # articulated_only on a free object: a space of its own with it
+            space = copy.copy(space)
+            space.release = release
         padding = horizon + max(0.0, (duration or 0.0) - reference.duration * task.time_scale) + 0.1
         track = ReferenceTrack.build(reference, task.layout, task.time_scale, scene.planner_timestep, padding)
         if num_control_points is None:

@@ -18,13 +18,15 @@ after that last contact, and how:
 - ``window``: the wrist is also sampled around the last contact;
 - ``retract``: the hand lets go by a law of its measured state instead of the plans
   (:func:`retraction`): the grip's squeeze dropped, each contact point moved off along its normal (and
-  with ``retract_away`` the wrist moved off the object).
+  with ``retract_away`` the wrist moved off the object);
+- ``articulated_only``: the hold and the retraction only on an object that moves on joints.
 
 Every option at its default leaves the paper's method as it is.
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Annotated
 
 import mujoco
@@ -106,6 +108,15 @@ def backed_off(
 
 RETRACT_WAIT = 0.5  # s after the fingers' retraction before the wrist moves off (``retract``)
 RETRACT_MOVE = 2.0  # s over which the wrist moves off the object (``retract``)
+
+
+def has_free_body(model: mujoco.MjModel, index) -> bool:
+    """Whether any of the object's bodies (``index.object_bodies``) hangs on a free joint."""
+    for body in np.asarray(index.object_bodies, int):
+        first, count = model.body_jntadr[body], model.body_jntnum[body]
+        if count and (model.jnt_type[first : first + count] == mujoco.mjtJoint.mjJNT_FREE).any():
+            return True
+    return False
 
 
 def retraction(
@@ -275,6 +286,13 @@ class ReleaseSchedule:
             the object in the plant at a hair's breadth may be just apart in the planning model, where
             the contacts are read, and would be left there. 0 (the default): the planning model's
             contacts only.
+        articulated_only: the wrist's ``hold`` and the ``retract`` options act only on an object without
+            a free body, one that moves on joints (the paper doorknob's knob on its slide); a free object
+            is let go as without them (:meth:`for_object`). On the authors' frictionless slide a knob
+            let go moving never stops, so the hand is taken off it by a rule rather than by the plans; a
+            free object set down on a table is held by the table, and the plans, pricing its pose,
+            keep it upright while the fingers open, where a hand held still may leave a leaning object
+            to fall against it. ``False`` (the default): on every object.
     """
 
     @checked
@@ -295,6 +313,7 @@ class ReleaseSchedule:
         retract_away: Annotated[float, Ge(0)] = 0.0,
         retract_again: bool = False,
         retract_margin: Annotated[float, Ge(0)] = 0.0,
+        articulated_only: bool = False,
     ) -> None:
         self.pause = float(pause)
         self.hold = float(hold)
@@ -315,6 +334,7 @@ class ReleaseSchedule:
         self.retract_away = float(retract_away)
         self.retract_again = bool(retract_again)
         self.retract_margin = float(retract_margin)
+        self.articulated_only = bool(articulated_only)
 
     def __repr__(self) -> str:
         fields = (
@@ -333,8 +353,18 @@ class ReleaseSchedule:
             "retract_away",
             "retract_again",
             "retract_margin",
+            "articulated_only",
         )
         return f"ReleaseSchedule({', '.join(f'{k}={getattr(self, k)!r}' for k in fields)})"
+
+    def for_object(self, free: bool) -> ReleaseSchedule:
+        """The schedule a problem uses on its object: this one, or with ``articulated_only`` on a ``free``
+        object (one with a free body), a copy without the wrist's ``hold`` and the retraction."""
+        if not (self.articulated_only and free):
+            return self
+        out = copy.copy(self)
+        out.hold, out.retract, out.retract_again, out.retract_margin = 0.0, 0.0, False, 0.0
+        return out
 
     def root_nominal(
         self,
