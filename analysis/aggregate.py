@@ -141,6 +141,7 @@ COLUMN_TYPES: dict[str, str | None] = {
     "schema": "Int64",
     "git_revision": None,
     "cpu": None,
+    "processor": None,
     "logical_cpus": "Int64",
     "threads": "Int64",
     "trial_id": None,
@@ -234,6 +235,9 @@ def read_record(path: str | Path) -> dict:
     config = data.get("config")
     planner_cfg = config.get("planner") if isinstance(config, dict) else None
     row = {k: v for k, v in data.items() if k not in DROPPED_FIELDS and not isinstance(v, dict | list)}
+    # the processor as the host names it (brand, family, model: two of one brand string differ in speed)
+    host = data.get("host")
+    row["processor"] = host["cpu"] if isinstance(host, dict) and host.get("cpu") else data.get("cpu")
     if isinstance(planner_cfg, dict):
         for key in CONFIG_COLUMNS:
             if key in planner_cfg and not isinstance(planner_cfg[key], dict | list):

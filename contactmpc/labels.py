@@ -3,7 +3,7 @@
 A method is a ``variant`` (the paper's ``full``, ``no_contact``, ``joint_space``; ``replay``,
 ``robust``; or a named combination such as ``wrist_clearance``) with twelve independent groups on top:
 ``wrist`` (``fixed | sampled | acquire | carry``), ``shaping`` (``none | surface | clearance |
-clearance_grasp``), ``release`` (``none | reset | open | scheduled | flat | backoff | eased``),
+clearance_grasp``), ``release`` (``none | reset | open | scheduled | flat | backoff | eased | ...``),
 ``compensation`` (``none | predict``), ``effort`` (``uniform | acquire | acquire_half | acquire_short``),
 ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``), ``carry`` (``none | wrist | pose |
 held``), ``grip`` (``none | squeeze | carried | touched``), ``retarget`` (``none | wrist``), ``rollout``
@@ -53,6 +53,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "grasp_release_ahead_acquire": "full",
     "grasp_held_eased": "full",
     "grasp_held_eased_refined": "full",
+    "grasp_held_retract": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -113,6 +114,13 @@ NAMED_METHODS["grasp_held_eased_refined"] = {
     **NAMED_METHODS["grasp_held_eased"],
     "variant": "grasp_held_eased_refined",
     "rollout": "fine_on_error",
+}
+
+# grasp_held_eased letting go of an object on joints by retracting
+NAMED_METHODS["grasp_held_retract"] = {
+    **NAMED_METHODS["grasp_held_eased"],
+    "variant": "grasp_held_retract",
+    "release": "retract_articulated",
 }
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}

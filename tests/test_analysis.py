@@ -414,6 +414,18 @@ def test_a_records_variant_label_names_its_variant(tmp_path):
     assert sorted(df["variant"]) == ["full", "wrist_acquire", "wrist_acquire"]
 
 
+def test_a_records_processor_is_its_host_s_family_and_model_where_it_has_one(tmp_path):
+    """processor: the host's name for the processor (brand, family, model), which tells apart two of one
+    brand string; a record without a host keeps its brand string."""
+    for seed, model in ((1, "family 25, model 1"), (2, "family 26, model 2")):
+        record = make_record("apple", "full", seed, 1.0) | {"cpu": "AMD EPYC"}
+        write_json(tmp_path / f"r{seed}" / "trial.json", record | {"host": {"cpu": f"AMD EPYC ({model})"}})
+    write_json(tmp_path / "r0" / "trial.json", make_record("apple", "full", 0, 1.0) | {"cpu": "AMD EPYC"})
+    df = load_records(tmp_path).set_index("seed")
+    assert df.loc[1, "processor"] != df.loc[2, "processor"] and (df["cpu"] == "AMD EPYC").all()
+    assert df.loc[2, "processor"] == "AMD EPYC (family 26, model 2)" and df.loc[0, "processor"] == "AMD EPYC"
+
+
 def test_mann_whitney_is_exact_with_and_without_ties_and_six_seeds_can_pass_holm_over_eight():
     """No ties: scipy's exact U distribution; ties (every completed trial has TTF 1), one trial a side
     included: the exact permutation distribution, which for fully separated 6 vs 6 samples is

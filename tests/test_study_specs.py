@@ -62,7 +62,13 @@ def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_tar
     assert tasks == ["doorknob", "apple", "bottle", "stapler"] and seeds == list(range(10))
     assert spec.variants() == list(spec.ORDER)
     after = spec.ORDER[spec.ORDER.index(spec.METHOD) + 1 :]
-    assert after == ("grasp_release_ahead_acquire", "grasp_release_ahead", "grasp_release", "full")
+    assert after == (
+        "grasp_held_eased",
+        "grasp_release_ahead_acquire",
+        "grasp_release_ahead",
+        "grasp_release",
+        "full",
+    )
     assert spec.others() == [v for v in spec.ORDER if v != spec.METHOD] and "full" in spec.others()
     assert spec.target(9, 8, 10) == "met" and spec.target(10, 7, 10) == "missed"
     assert spec.target(9, 8, 9).startswith("met (already") and spec.target(2, 1, 4).startswith(
@@ -79,9 +85,11 @@ def test_the_method_study_compares_costs_on_one_processor_and_says_why_a_trial_i
     import pandas as pd
 
     spec = Study("method").spec
-    df = pd.DataFrame({"cpu": ["A", "B", "B", None]})
+    df = pd.DataFrame({"processor": ["A", "B", "B", None]})
     assert spec.cost_processor(df) == "B"
-    assert spec.cost_processor(pd.DataFrame({"cpu": ["B", "A"]})) == "A"  # a tie: the first by name
+    assert spec.cost_processor(pd.DataFrame({"processor": ["B", "A"]})) == "A"  # a tie: the first by name
+    # two processors of one brand string are told apart by the host's family and model
+    assert spec.cost_processor(pd.DataFrame({"cpu": ["A", "A"]})) is None
     assert spec.cost_processor(pd.DataFrame({"x": [1]})) is None
     method, seeds = spec.METHOD, [0, 1, 2]
     trials = pd.DataFrame(
@@ -604,6 +612,54 @@ def test_fig3_counts_the_cells_a_sweep_plans_not_those_it_has_reached() -> None:
     assert spec._cells_planned("fig3_paper_hard") == 6  # 2 challenges x 3 variants
 
 
+def test_the_method_study_lets_the_trials_of_an_equivalent_config_stand_in_for_the_method(
+    monkeypatch, tmp_path
+) -> None:
+    """with_equivalents: on a free object grasp_held_retract's missing seeds are grasp_held_eased's trials,
+    on the doorknob the retract lever's, each marked with what it ran as; a seed the method ran itself keeps
+    its own trial, and its record is checked against the stand-in's (equivalents_note counts agreement)."""
+    import json
+
+    import pandas as pd
+
+    spec = Study("method").spec
+    assert spec.EQUIVALENT["grasp_held_retract"]["free"] == ("records", "grasp_held_eased")
+    lever = spec.EQUIVALENT["grasp_held_retract"]["joints"][1]
+
+    def trial(task, variant, seed, clean, error, folder="records"):
+        path = tmp_path / folder / f"{variant}-{task}-{seed}" / "trial.json"
+        path.parent.mkdir(parents=True)
+        path.write_text(json.dumps({"completed": True, "finished_cleanly": clean, "ttf": 1.0}))
+        return dict(task=task, variant=variant, seed=seed, counted=True, completed=True,
+                    finished_cleanly=clean, object_position_error_mean=error,
+                    record_path=str(path))  # fmt: skip
+
+    df = pd.DataFrame(
+        [trial("apple", "grasp_held_retract", 0, True, 0.01)]
+        + [trial("apple", "grasp_held_eased", s, s != 2, 0.01) for s in range(3)]
+        + [trial("doorknob", "grasp_held_eased", s, False, 0.0) for s in range(2)]
+    )
+    levers = pd.DataFrame(
+        [trial("doorknob", "grasp_held_eased+release=retract", s, True, 0.0, folder=lever) for s in range(2)]
+    )
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: levers)
+    monkeypatch.setattr(spec, "lever_of", lambda path: lever)
+    out = spec.with_equivalents(None, df)
+    mine = out[out["variant"] == "grasp_held_retract"].set_index(["task", "seed"]).sort_index()
+    assert list(mine.index) == [("apple", 0), ("apple", 1), ("apple", 2), ("doorknob", 0), ("doorknob", 1)]
+    assert mine["stand_in"].isna().tolist() == [True, False, False, False, False]
+    assert (
+        mine.loc[("apple", 2), "stand_in"] == "grasp_held_eased"
+        and not mine.loc[("apple", 2), "finished_cleanly"]
+    )
+    assert mine.loc[("doorknob", 1), "stand_in"] == lever and mine.loc[("doorknob", 1), "finished_cleanly"]
+    assert out.attrs["equivalent_checks"] == [("grasp_held_retract", "apple", 0, "grasp_held_eased", True)]
+    note = spec.equivalents_note(out)
+    assert (
+        "apple: seeds 1 and 2 by `grasp_held_eased`" in note and "(apple 0)" in note and "on 1 of 1" in note
+    )
+
+
 def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen_on(monkeypatch) -> None:
     """heldout: per method and task, the held-out trials' completed and clean counts beside the sweep's, with
     the difference and Barnard's test; a line where the method has none (the rows are another's); without a
@@ -941,8 +997,8 @@ def test_the_method_study_sets_each_finer_planning_model_beside_the_method_on_th
     import pandas as pd
 
     spec = Study("method").spec
-    fine = f"{spec.METHOD}+rollout=fine"
-    rows = [(spec.METHOD, s, s < 3, s < 2) for s in range(4)] + [
+    fine = f"{spec.free_base()}+rollout=fine"
+    rows = [(spec.free_base(), s, s < 3, s < 2) for s in range(4)] + [
         (fine, s, True, s != 1) for s in (0, 1, 3, 5)
     ]
     df = pd.DataFrame([{"task": "stapler", "variant": v, "seed": s, "counted": True, "completed": c,
@@ -1267,9 +1323,10 @@ def test_the_method_study_bins_the_set_down_by_the_object_s_orientation(monkeypa
     import pandas as pd
 
     spec = Study("method").spec
-    lever = f"{spec.METHOD}+place=wrist"
+    base = spec.free_base()
+    lever = f"{base}+place=wrist"
 
-    def trial(task, rot0, rot1, clean, completed=True, seed=0, variant=spec.METHOD):
+    def trial(task, rot0, rot1, clean, completed=True, seed=0, variant=base):
         return dict(task=task, seed=seed, variant=variant, counted=True, completed=completed,
                     finished_cleanly=clean, object_rotation_error_span_final=math.radians(rot0),
                     object_position_error_span_final=0.01,

@@ -124,8 +124,9 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
     )
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
     # (wrist, wrist_clearance) or that are the project's methods (grasp_release and those that add groups
-    # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased, grasp_held_eased_refined)
-    assert len(VARIANTS) <= 12
+    # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased, grasp_held_eased_refined,
+    # grasp_held_retract)
+    assert len(VARIANTS) <= 13
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -284,8 +285,12 @@ def test_the_release_node_has_a_schema():
 @pytest.mark.parametrize("task", ["paper_apple", "paper_bottle", "paper_doorknob", "paper_stapler"])
 def test_a_paper_task_chooses_the_project_s_method_and_the_command_line_wins(task):
     choices = compose_config([f"task={task}"], return_hydra_config=True).hydra.runtime.choices
-    assert (choices.variant, choices.preset) == ("grasp_held_eased", "paper_32samples_calibrated")
-    assert (choices.wrist, choices.shaping, choices.release) == ("acquire", "clearance", "eased")
+    assert (choices.variant, choices.preset) == ("grasp_held_retract", "paper_32samples_calibrated")
+    assert (choices.wrist, choices.shaping, choices.release) == (
+        "acquire",
+        "clearance",
+        "retract_articulated",
+    )
     assert (choices.compensation, choices.effort, choices.carry) == ("predict", "acquire", "held")
     cfg = compose_config([f"task={task}", "variant=full", "preset=paper"], return_hydra_config=True)
     assert (cfg.hydra.runtime.choices.variant, cfg.hydra.runtime.choices.preset) == ("full", "paper")
@@ -350,7 +355,6 @@ def test_grasp_held_eased_is_the_method_with_the_carry_and_the_release_of_its_le
     method it is on."""
 
     named, choices = _paper_apple("variant=grasp_held_eased")
-    assert _paper_apple()[0] == named  # the paper tasks' default
     groups, _ = _paper_apple("variant=grasp_release_ahead_acquire", "carry=held", "release=eased")
     lever, lever_choices = _paper_apple(
         "variant=grasp_release_ahead_acquire",
@@ -382,6 +386,23 @@ def test_grasp_held_eased_refined_is_the_method_with_the_model_refined_on_mispre
     assert labels.method_name({**choices, "variant": "full", "rollout": "paper"}) == "grasp_held_eased"
 
 
+def test_grasp_held_retract_is_the_method_letting_go_of_an_articulation_by_retracting():
+    """variant=grasp_held_retract composes grasp_held_eased with release=retract_articulated: its config
+    differs only in the release schedule, which adds the hold and the repeated retraction for an object on
+    joints (sampler.release.articulated_only); the method study's records of the latter are named by it."""
+    named, choices = _paper_apple("variant=grasp_held_retract")
+    assert _paper_apple()[0] == named  # the paper tasks' default
+    groups, group_choices = _paper_apple("variant=grasp_held_eased", "release=retract_articulated")
+    assert named == groups and choices == group_choices
+    eased, _ = _paper_apple("variant=grasp_held_eased")
+    release, before = named["sampler"].pop("release"), eased["sampler"].pop("release")
+    assert named == eased  # the release schedule is all that differs
+    added = {k: v for k, v in release.items() if before.get(k) != v}
+    assert added == {"hold": 2.0, "retract": 0.02, "retract_again": True, "articulated_only": True}
+    assert labels.method_name({"variant": "grasp_held_retract", **choices}) == "grasp_held_retract"
+    assert labels.method_name({"variant": "grasp_held_eased", **choices}) == "grasp_held_retract"
+
+
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
     """place=wrist sets the release schedule's window to the 3 s before the last expected contact (off by
     default: none composes the config of before); the record labels it and the method is named with it;
@@ -389,10 +410,12 @@ def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
     from contactmpc.control.samplers import PCASplineSpace
     from contactmpc.validate import ConfigError
 
-    off = compose_config(["task=paper_bottle"])
+    off = compose_config(["task=paper_bottle", "variant=grasp_held_eased"])
     assert off.sampler.release.window is None
-    assert compose_config(["task=paper_bottle", "place=none"]) == off
-    cfg = compose_config(["task=paper_bottle", "place=wrist"], return_hydra_config=True)
+    assert compose_config(["task=paper_bottle", "variant=grasp_held_eased", "place=none"]) == off
+    cfg = compose_config(
+        ["task=paper_bottle", "variant=grasp_held_eased", "place=wrist"], return_hydra_config=True
+    )
     assert list(cfg.sampler.release.window) == [-3.0, 0.0] and cfg.hydra.runtime.choices.place == "wrist"
     rest = OmegaConf.to_container(cfg, resolve=False)
     rest.pop("hydra")

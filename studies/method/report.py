@@ -78,6 +78,7 @@ ORDER = (
     "grasp_held_eased+rollout=fine_budget",
     "grasp_held_eased+rollout=fine",
     "grasp_held_eased+retarget=wrist",
+    "grasp_held_retract",
     "grasp_held_eased",
     "grasp_release_ahead_acquire",
     "grasp_release_ahead",
@@ -202,35 +203,177 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
         df[c] = values.map(lambda v: isinstance(v, bool | np.bool_) and bool(v)).astype(bool) & ok
     for c in ("ttf", "cpu_seconds", "failure_time"):
         df[c] = pd.to_numeric(df[c] if c in df else pd.Series(math.nan, index=df.index), errors="coerce")
-    # the cost columns compare CPU seconds on one processor only: the one most records ran on
-    cost_cpu = cost_processor(df)
-    df["cpu_seconds"] = df["cpu_seconds"].where(df["cpu"].eq(cost_cpu) if "cpu" in df else False)
-    df.attrs["cost_processor"] = cost_cpu
-    return release.with_errors(df)
+    df = release.with_errors(df)
+    df = df if folder is not None else with_equivalents(study, df)
+    # the cost columns compare CPU seconds on one processor only (its family and model, as the host names
+    # it): per method and task, the one most of its trials ran on
+    df = df.copy()
+    df["cost_processor"] = None
+    if PROCESSOR in df and len(df):
+        for _, g in df.groupby(["task", "variant"], dropna=False):
+            df.loc[g.index, "cost_processor"] = cost_processor(g)
+    df["cpu_seconds"] = df["cpu_seconds"].where(
+        df[PROCESSOR].eq(df["cost_processor"]) if PROCESSOR in df else False
+    )
+    df.attrs["cost_processor"] = cost_processor(df)
+    return df
+
+
+#: Trials that are a method's in all but their name, by its own rule: per method and kind of object
+#: (``free``: a free body; ``joints``: an object on joints only), whose trials stand in for its own on a
+#: planned seed it has none of its own on: another method's of the sweep (``records``) or a lever's
+#: (``levers``, :data:`LEVERS`). ``grasp_held_retract`` differs from ``grasp_held_eased`` only in its release
+#: schedule, whose additions act on an object on joints alone (``sampler.release.articulated_only``;
+#: ``tests/test_release.py`` checks the planner bit for bit on a free object): on a free object it is
+#: ``grasp_held_eased``, on the doorknob ``grasp_held_eased`` with the lever below.
+EQUIVALENT = {
+    "grasp_held_retract": {
+        "free": ("records", "grasp_held_eased"),
+        "joints": ("levers", "release=retract sampler.release.retract_again=True"),
+    }
+}
+
+
+def own_trials(df: pd.DataFrame) -> pd.DataFrame:
+    """:data:`METHOD`'s trials in ``df`` that it ran itself (no stand-in: :func:`with_equivalents`)."""
+    if not len(df):
+        return df
+    mine = df[df["variant"] == METHOD]
+    return mine[mine["stand_in"].isna()] if "stand_in" in mine else mine
+
+
+def free_base() -> str:
+    """The method whose trials are :data:`METHOD`'s on a free object (:data:`EQUIVALENT`; itself where
+    none), on which the levers of the free objects are built."""
+    folder, name = EQUIVALENT.get(METHOD, {}).get("free", ("records", METHOD))
+    return name if folder == "records" else METHOD
+
+
+def object_kind(df: pd.DataFrame, task: str) -> str | None:
+    """``free`` where the task's trials in ``df`` have a free body's position error, else ``joints``;
+    ``None`` where ``df`` holds no object errors."""
+    if "object_position_error_mean" not in df:
+        return None
+    return "free" if release.error_kind(df[df["task"] == task]) == "position" else "joints"
+
+
+def with_equivalents(study, df: pd.DataFrame, seeds=None) -> pd.DataFrame:
+    """``df`` with the trials that stand in for a method's (:data:`EQUIVALENT`) on the planned tasks and
+    the seeds it has no trial of its own on (``seeds``: which seeds may stand in; default: the planned
+    ones), each named as that method (``variant``) with ``stand_in`` the name of the method or lever it
+    ran as."""
+    seeds = seeds or (lambda seed: seed in plan()[1])
+    rows, checks = [], []
+    for method, by_kind in EQUIVALENT.items():
+        have = set(zip(*(df.loc[df["variant"] == method, c] for c in ("task", "seed")), strict=True))
+        for task in plan()[0]:
+            if not (df["task"] == task).any() or (kind := object_kind(df, task)) is None:
+                continue
+            folder, name = by_kind[kind]
+            source = df if folder == "records" else frame(study, folder)
+            if not len(source):
+                continue
+            column = "variant" if folder == "records" else "lever"
+            if folder != "records":
+                source = source.assign(lever=[lever_of(p) for p in source["record_path"]])
+            found = source[(source["task"] == task) & (source[column] == name)]
+            found = found[[bool(seeds(s)) for s in found["seed"]]]
+            mine = [(task, s) in have for s in found["seed"]]
+            for path, seed in zip(found.loc[mine, "record_path"], found.loc[mine, "seed"], strict=True):
+                own = df.loc[(df["variant"] == method) & (df["task"] == task) & (df["seed"] == seed)]
+                a, b = read_record(own["record_path"].iloc[0]), read_record(path)
+                checks.append((method, task, int(seed), name, all(a.get(k) == b.get(k) for k in SAME_RECORD)))
+            rows.append(found[[not m for m in mine]].assign(variant=method, stand_in=name))
+    attrs = {**df.attrs, "equivalent_checks": checks}
+    if rows:
+        df = pd.concat([df, *rows], ignore_index=True)
+    df.attrs.update(attrs)
+    return df
+
+
+def equivalents_note(df: pd.DataFrame) -> str:
+    """Which trials stand in for a method's (:func:`with_equivalents`), and on how many of the seeds the
+    method ran itself its record and the stand-in's agree (:data:`SAME_RECORD`); ``""`` without any."""
+    if "stand_in" not in df:
+        return ""
+    extra = df[df["stand_in"].notna() & df["variant"].isin(EQUIVALENT) & df["counted"]]
+    checks = df.attrs.get("equivalent_checks", [])
+    out = []
+    for method in EQUIVALENT:
+        mine = extra[extra["variant"] == method] if len(extra) else extra
+        if not len(mine):
+            continue
+        by = "; ".join(
+            f"{task}: seeds {seeds(g['seed'])} by `{g['stand_in'].iloc[0]}`"
+            for task in plan()[0]
+            if len(g := mine[mine["task"] == task])
+        )
+        done = [c for c in checks if c[0] == method]
+        agree = sum(c[4] for c in done)
+        seen = ", ".join(f"{task} {seed}" for _, task, seed, _, _ in done)
+        out.append(
+            f"`{method}` is run as its own trials where it has them; elsewhere a trial of the same config in "
+            f"all that acts on that task stands in for it ({by}): on a free object its release is "
+            f"`{EQUIVALENT[method]['free'][1]}`'s (`sampler.release.articulated_only`: the hold and the "
+            "retraction act only on an object on joints; `tests/test_release.py` checks the planner bit for "
+            "bit), and on an object on joints it is that method with the lever "
+            f"`{EQUIVALENT[method]['joints'][1]}`. "
+            + (
+                f"Where it ran itself on a seed a stand-in also ran ({seen}), the two records agree "
+                f"(completion, finishing cleanly, TTF and the final errors) on {of(agree, len(done))}."
+                if done
+                else "It has not yet run itself on a seed a stand-in ran."
+            )
+        )
+    return "".join(f"\n{line}\n" for line in out)
+
+
+#: The column that tells processors apart for costs: the host's processor (brand, family, model), else the
+#: brand string alone (records before it).
+PROCESSOR = "processor"
 
 
 def cost_processor(df: pd.DataFrame) -> str | None:
     """The processor the most records ran on (ties: the first by name): the CPU seconds of trials on
     different processors are not compared, so every cost in the report is a cost on this one."""
-    if "cpu" not in df or not df["cpu"].notna().any():
+    if PROCESSOR not in df or not df[PROCESSOR].notna().any():
         return None
-    counts = df["cpu"].dropna().astype(str).value_counts()
+    counts = df[PROCESSOR].dropna().astype(str).value_counts()
     return sorted(counts.index, key=lambda c: (-counts[c], c))[0]
 
 
 def cost_note(df: pd.DataFrame) -> str:
     """Which records the CPU seconds come from (:func:`cost_processor`)."""
-    cpu = df.attrs.get("cost_processor")
-    if cpu is None or "cpu" not in df:
+    if "cost_processor" not in df or not df["cost_processor"].notna().any():
         return ""
-    n, other = int(df["cpu"].eq(cpu).sum()), int(df["cpu"].ne(cpu).sum())
-    if not other:
-        return f"CPU-s: seconds of one core of the {cpu} each trial ran on.\n"
-    return (
-        f"CPU-s: seconds of one core of the {cpu}, from its {n} records alone; the {other} records from "
-        "other processors count in every other column but not in the costs (one processor's seconds are "
-        "not another's).\n"
+    ok = counted(df)
+    kept = int(ok[PROCESSOR].eq(ok["cost_processor"]).sum())
+    where = "; ".join(
+        f"`{method}` on the {short_processor(cpu)} ({', '.join(tasks)})"
+        for method in ordered(ok["variant"].unique(), ORDER)
+        for cpu, tasks in _by_processor(ok[ok["variant"] == method]).items()
     )
+    return (
+        "CPU-s: per method and task, seconds of one core of the processor most of its trials ran on "
+        f"({kept} of {len(ok)} trials; the others count in every other column but not in the costs: one "
+        "processor's seconds are not another's, and one brand string, AMD EPYC, names processors of "
+        f"different speeds): {where}. Compare costs only between cells on one processor.\n"
+    )
+
+
+def short_processor(cpu: str | None) -> str:
+    """``AMD EPYC (family 25, model 17)`` of a host's processor name (the vendor and stepping left out)."""
+    return re.sub(r"\((?:[A-Za-z]+, )?(family \d+, model \d+)(?:, stepping \d+)?\)", r"(\1)", str(cpu))
+
+
+def _by_processor(df: pd.DataFrame) -> dict[str, list[str]]:
+    """The tasks of ``df`` by the processor their costs come from."""
+    out: dict[str, list[str]] = {}
+    for task in ordered(df["task"].unique(), TASK_ORDER):
+        cpu = df.loc[df["task"] == task, "cost_processor"].dropna()
+        if len(cpu):
+            out.setdefault(cpu.iloc[0], []).append(task)
+    return out
 
 
 def counted(df: pd.DataFrame) -> pd.DataFrame:
@@ -595,14 +738,13 @@ def _ms(r: dict, key: str) -> str:
 def online_cpu(r: dict) -> str:
     """The processor an online run ran on, short: the record's host CPU without its vendor string and
     stepping (``AMD EPYC (family 25, model 1)``); its coarse ``cpu`` where the record has no host."""
-    full = str(((r.get("host") or {}).get("cpu")) or r.get("cpu") or "unknown CPU")
-    return re.sub(r"\((?:[A-Za-z]+, )?(family \d+, model \d+)(?:, stepping \d+)?\)", r"(\1)", full)
+    return short_processor(((r.get("host") or {}).get("cpu")) or r.get("cpu") or "unknown CPU")
 
 
 def usual_cpu(records: list[dict]) -> str | None:
     """The processor (:func:`online_cpu`) most of the online runs ``records`` ran on (ties: by name), as
     :func:`cost_processor` picks it."""
-    return cost_processor(pd.DataFrame({"cpu": [online_cpu(r) for r in records]}))
+    return cost_processor(pd.DataFrame({PROCESSOR: [online_cpu(r) for r in records]}))
 
 
 def real_time(r: dict) -> bool:
@@ -663,10 +805,17 @@ def heldout_frame(study, chosen: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFra
     stand-ins (:func:`stand_ins`) among them; and apart: the method's own, and the stand-ins."""
     df = frame(study, HELDOUT)
     ok = df[df["counted"] & df["task"].isin(plan()[0])] if len(df) else df  # (not the sweep's seeds)
-    own = ok[ok["variant"] == METHOD] if len(ok) else ok
-    extra = stand_ins(study, chosen, own)
+    found = []
+    for method in dict.fromkeys((METHOD, free_base())):
+        mine = ok[ok["variant"] == method] if len(ok) else ok
+        if len(more := stand_ins(study, chosen, mine, method)):
+            found.append(more[more["task"].isin(plan()[0])])
+    extra = pd.concat(found) if found else ok.iloc[0:0].assign(stand_in=[])
     if len(extra):
-        ok = pd.concat([ok, extra[extra["task"].isin(plan()[0])]])
+        ok = pd.concat([ok, extra])
+    if len(ok):  # the trials that are the method's in all but their name (EQUIVALENT), on these seeds
+        ok = with_equivalents(study, ok, seeds=lambda seed: seed not in plan()[1])
+    own = own_trials(ok)
     return ok, own, extra
 
 
@@ -694,25 +843,30 @@ def heldout(study, chosen: pd.DataFrame) -> str:
             "named, are in the levers' table: *Levers on the method, full trials*)"
             + (": the rows below are of " + codes(methods) + ".\n\n" if methods else ".\n\n")
         )
-    if len(extra):
-        by = ", ".join(
-            f"{task} {seeds(g['seed'])}" for task in plan()[0] if len(g := extra[extra["task"] == task])
-        )
+    for method in ordered(extra["variant"].unique(), ORDER) if len(extra) else []:
+        ex = extra[extra["variant"] == method]
+        by = ", ".join(f"{task} {seeds(g['seed'])}" for task in plan()[0] if len(g := ex[ex["task"] == task]))
         mine = ", ".join(
             f"{task} {seeds(sorted(set(g['seed'])))}"
             for task in plan()[0]
             if len(g := own[own["task"] == task])
         )
         head += (
-            f"Where `{METHOD}` has no held-out trial of its own, a lever trial kept in `{LEVERS}/` that ran "
+            f"Where `{method}` has no held-out trial of its own, a lever trial kept in `{LEVERS}/` that ran "
             "its config (the same resolved config, the seed aside, on the same processor: "
-            f"{codes(sorted(set(extra['stand_in'])))}) stands in for it ({by}): the same config and seed "
+            f"{codes(sorted(set(ex['stand_in'])))}) stands in for it ({by}): the same config and seed "
             "give the same record on one processor (*reproduced*, under *What the records show*)."
             + " The stand-ins ran before the method was named, and their counts were in this report when it "
             "was chosen: they are held out from the sweep's seeds, not from that choice"
-            + (f"; the method's own trials here ({mine}) chose nothing." if mine else ".")
+            + (
+                f"; `{METHOD}`'s own trials here ({mine}) chose nothing."
+                if mine and method == METHOD
+                else "."
+            )
             + "\n\n"
         )
+    if len(ok) and "stand_in" in ok and (ok["variant"].isin(EQUIVALENT) & ok["stand_in"].notna()).any():
+        head += equivalents_note(ok).strip().replace("\n\n", " ") + "\n\n"
     if not methods:
         return head + "No such trial is kept yet.\n"
     base = counted(chosen)
@@ -1427,12 +1581,14 @@ def set_down(study) -> str:
     ) + (
         set_down_tilt(done)
         + (
-            "\nEach method built on `" + METHOD + "` against it, on the sweep's seeds both completed: the "
+            "\nEach method built on `"
+            + free_base()
+            + "` against it, on the sweep's seeds both completed: the "
             "object's orientation error where the hand lets go (median, degrees), and the Wilcoxon "
             "signed-rank test on the paired seeds (exact, two-sided), a continuous measure with more "
             "power than the counts of clean finishes.\n\n"
             + pipe_table(
-                ("method", "task", "seeds", "median: method / " + METHOD, "lower on", "Wilcoxon p"),
+                ("method", "task", "seeds", "median: method / " + free_base(), "lower on", "Wilcoxon p"),
                 "lllrrr",
                 paired_rows,
             )
@@ -1520,7 +1676,7 @@ def set_down_tilt(done: pd.DataFrame) -> str:
 
 
 def set_down_pairs(ok: pd.DataFrame, least: int = 5) -> list[str]:
-    """Rows of :func:`set_down`'s paired table: each method of :data:`ORDER` built on :data:`METHOD`
+    """Rows of :func:`set_down`'s paired table: each method of :data:`ORDER` built on :func:`free_base`
     against it, per free-object task with at least ``least`` seeds both completed: the orientation error
     where the contact span ends, its medians, on how many seeds the method's is the lower, and the exact
     two-sided Wilcoxon signed-rank p."""
@@ -1529,9 +1685,10 @@ def set_down_pairs(ok: pd.DataFrame, least: int = 5) -> list[str]:
     rows = []
     if not len(ok):
         return rows
-    for method in [m for m in ORDER if m != METHOD and built_from(m) == METHOD]:
+    base = free_base()
+    for method in [m for m in ORDER if m != base and built_from(m) == base]:
         for task in [t for t in plan()[0] if t != "doorknob"]:
-            a, b = (cell(ok, task, v) for v in (method, METHOD))
+            a, b = (cell(ok, task, v) for v in (method, base))
             a, b = (x[x["completed"]].set_index("seed") for x in (a, b))
             common = sorted(set(a.index) & set(b.index))
             if len(common) < least:
@@ -3086,9 +3243,12 @@ def findings(df: pd.DataFrame) -> str:
             continue
         k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
         verdicts[task] = target(k, c, n)
+        on = g["cost_processor"].dropna() if "cost_processor" in g else pd.Series(dtype=object)
         out.append(
             f"- **{task}**: `{METHOD}` completes {of(k, n)} and finishes {of(c, n)} cleanly "
-            f"(median {median(g['cpu_seconds'])} CPU-s a trial); target {verdicts[task]}."
+            f"(median {median(g['cpu_seconds'])} CPU-s a trial"
+            + (f" on the {short_processor(on.iloc[0])}" if len(on) else "")
+            + f"); target {verdicts[task]}."
         )
     met = [t for t, v in verdicts.items() if v.startswith("met")]
     missed = [t for t, v in verdicts.items() if v.startswith("missed")]
@@ -3136,14 +3296,15 @@ def _trial_key(record: dict, seed: int | None = None) -> str | None:
     return json.dumps([config, record.get("cpu")], sort_keys=True) if config else None
 
 
-def stand_ins(study, df: pd.DataFrame, own: pd.DataFrame) -> pd.DataFrame:
+def stand_ins(study, df: pd.DataFrame, own: pd.DataFrame, method: str = METHOD) -> pd.DataFrame:
     """Lever trials (:data:`LEVERS`) on the held-out seeds that are :data:`METHOD`'s trials in all but their
     name: the same resolved config (the seed aside) on the same processor as one of the method's trials
     (``df``, the sweep's), on a task and seed the method has no held-out trial of its own (``own``); with
     ``variant`` set to :data:`METHOD` and ``stand_in`` the lever's name. Same config and seed, same record on
     one processor (31 of 31 agree where both ran: :func:`reproduced`)."""
     mine = counted(df)
-    mine = mine[mine["variant"] == METHOD] if len(mine) else mine
+    mine = mine[mine["variant"] == method] if len(mine) else mine
+    mine = mine[mine["stand_in"].isna()] if "stand_in" in mine else mine
     if not len(mine) or "record_path" not in mine:
         return mine.iloc[0:0]
     levers = lever_frame(study)
@@ -3157,15 +3318,14 @@ def stand_ins(study, df: pd.DataFrame, own: pd.DataFrame) -> pd.DataFrame:
         if (r["task"], r["seed"]) not in have and _trial_key(read_record(r["record_path"]), seed=0) in keys:
             rows.append(i)
             have.add((r["task"], r["seed"]))
-    return held.loc[rows].assign(stand_in=held.loc[rows, "lever"], variant=METHOD)
+    return held.loc[rows].assign(stand_in=held.loc[rows, "lever"], variant=method)
 
 
 def reproduced(study, df: pd.DataFrame) -> str:
     """Of :data:`METHOD`'s trials, those a lever (:data:`LEVERS`) ran before the method was named with the
     same resolved config on the same processor, and on how many the two records agree (:data:`SAME_RECORD`),
     as a sentence; ``""`` where there are none."""
-    mine = counted(df)
-    mine = mine[mine["variant"] == METHOD] if len(mine) else mine
+    mine = own_trials(counted(df))
     levers = lever_frame(study)
     if not len(mine) or not len(levers):
         return ""
@@ -3240,6 +3400,7 @@ def report(study) -> str:
         + "\n## What the records show\n\n"
         + findings(df)
         + reproduced(study, df)
+        + equivalents_note(df)
         + levers_target(study)
         + rough_summary(rough)
         + f"\n*The seeds are not held out*: `{METHOD}`'s groups were chosen by what they did on these "
