@@ -1142,7 +1142,8 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             hk, hc = int(h["completed"].sum()), int(h["finished_cleanly"].sum())
             ck, cc = int(c["completed"].sum()), int(c["finished_cleanly"].sum())
             p, _ = completion_test(hc, len(h), cc, len(c)) if len(c) else (math.nan, math.nan)
-            ratio = h["cpu_seconds"].median() / c["cpu_seconds"].median() if len(c) else math.nan
+            one = len(c) and cost_processor(h) == cost_processor(c)  # seconds of one processor alone
+            ratio = h["cpu_seconds"].median() / c["cpu_seconds"].median() if one else math.nan
             with_lever, without = (set(x.loc[x["finished_cleanly"], "seed"]) for x in (h, c))
             only, lost = sorted(with_lever - without), sorted(without - with_lever)
             mm = [f"{median(x[col], scale=1e3)}" for col in ("_span", "_final") for x in (h, c)]
@@ -1235,9 +1236,10 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
         + pipe_table(cols, "lllrrrrrllrrr", rows)
         + "\nBarnard's exact two-sided p on finishing cleanly (the seeds are paired, the test treats the two "
         "sides as independent samples); the object's position error, the median over the trials of its mean "
-        "over the contact span, and at the trial's end; CPU-s: the medians' ratio, on the seeds both have "
-        "(the method's trials ran at earlier code revisions, so a ratio below 1 for a lever that adds no "
-        "rollouts is the code's speed-up since, not the lever's). A lever with fewer seeds than the "
+        "over the contact span, and at the trial's end; CPU-s: the medians' ratio, on the seeds both have, "
+        "where most trials of both ran on one processor (blank: on two; the host's family and model tell "
+        "them apart; the method's trials ran at earlier code revisions, so a ratio below 1 for a lever that "
+        "adds no rollouts is the code's speed-up since, not the lever's). A lever with fewer seeds than the "
         "sweep's was stopped for one that looked more promising: its counts are of its seeds only.\n"
         + (f"\n{link}\n" if link else "")
     )
