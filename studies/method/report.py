@@ -3497,12 +3497,14 @@ def glance(study) -> list[dict]:
         for method in (m for m in ORDER if m != BASELINE and "+" not in m):
             g = cell(ok, task, method) if len(ok) else ok
             if len(g):
-                rows.append(
-                    glance_row(
-                        f"paper {task}",
-                        f"`preset=paper_32samples_calibrated variant={method}`"
-                        + (" (the default)" if method == METHOD and task in default_tasks else ""),
-                        g.assign(compute=g["cpu_seconds"]),
-                    )
+                row = glance_row(
+                    f"paper {task}",
+                    f"`preset=paper_32samples_calibrated variant={method}`"
+                    + (" (the default)" if method == METHOD and task in default_tasks else ""),
+                    g.assign(compute=g["cpu_seconds"]),
                 )
+                on = g["cost_processor"].dropna() if "cost_processor" in g else g.iloc[0:0]
+                if len(on) and g["cpu_seconds"].notna().any():  # whose seconds they are
+                    row["median CPU-s per trial"] += f" on {short_processor(on.iloc[0])}"
+                rows.append(row)
     return rows
