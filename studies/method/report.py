@@ -474,8 +474,11 @@ def missing(df: pd.DataFrame) -> str:
                 gaps.append(f"{task} seed{'s' if len(lack) != 1 else ''} {seeds(lack)}")
         n = sum(len(cell(ok, t, variant)) for t in tasks) if len(ok) else 0
         total = len(tasks) * len(planned_seeds)
+        mine = ok[ok["variant"] == variant] if len(ok) else ok
+        standing = int(mine["stand_in"].notna().sum()) if "stand_in" in mine else 0
         lines.append(
             f"- `{variant}`: {of(n, total)} planned trials kept"
+            + (f" ({standing} of them stood in for by an equivalent config's: below)" if standing else "")
             + (f"; missing: {'; '.join(gaps)}" if gaps else " (complete)")
             + "."
         )
@@ -987,6 +990,10 @@ LEVER_TEXT = {
     "hand still on the object (`sampler.release.retract_again`; `release=retract`'s once)",
     "sampler.release.blend=3.0": "the release reset eases the committed control points into the release "
     "nominal over 3 s (`sampler.release.blend`; the method's 1 s)",
+    "sampler.release.retract_margin=0.002": "a finger within 2 mm of the object counts as touching it for "
+    "the retraction and its repeats (`sampler.release.retract_margin`; the method's 0: the planning "
+    "model's contacts only), so a link resting on the knob in the plant, just apart in the planning model, "
+    "is moved off too",
     "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
     "contact (`sampler.release.hold`; `release=halt`'s 2 s), so a set-down the reference still makes in "
     "its last 2 s of contact (the bottle's) is not stopped short in the air",
