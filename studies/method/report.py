@@ -215,15 +215,14 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
     df["cpu_seconds"] = df["cpu_seconds"].where(
         df[PROCESSOR].eq(df["cost_processor"]) if PROCESSOR in df else False
     )
-    df.attrs["cost_processor"] = cost_processor(df)
     return df
 
 
 #: Trials that are a method's in all but their name, by its own rule: per method and kind of object
 #: (``free``: a free body; ``joints``: an object on joints only), whose trials stand in for its own on a
 #: planned seed it has none of its own on: another method's of the sweep (``records``) or a lever's
-#: (``levers``, :data:`LEVERS`). ``grasp_held_retract`` differs from ``grasp_held_eased`` only in its release
-#: schedule, whose additions act on an object on joints alone (``sampler.release.articulated_only``;
+#: (``levers``, :func:`lever_frame`). ``grasp_held_retract`` differs from ``grasp_held_eased`` only in its
+#: release schedule, whose additions act on an object on joints alone (``sampler.release.articulated_only``;
 #: ``tests/test_release.py`` checks the planner bit for bit on a free object): on a free object it is
 #: ``grasp_held_eased``, on the doorknob ``grasp_held_eased`` with the lever below.
 EQUIVALENT = {
@@ -263,19 +262,20 @@ def with_equivalents(study, df: pd.DataFrame, seeds=None) -> pd.DataFrame:
     ones), each named as that method (``variant``) with ``stand_in`` the name of the method or lever it
     ran as."""
     seeds = seeds or (lambda seed: seed in plan()[1])
-    rows, checks = [], []
+    rows, checks, levers = [], [], None
     for method, by_kind in EQUIVALENT.items():
         have = set(zip(*(df.loc[df["variant"] == method, c] for c in ("task", "seed")), strict=True))
         for task in plan()[0]:
             if not (df["task"] == task).any() or (kind := object_kind(df, task)) is None:
                 continue
             folder, name = by_kind[kind]
-            source = df if folder == "records" else frame(study, folder)
+            if folder == "records":
+                source, column = df, "variant"
+            else:  # the levers' trials, read once
+                levers = lever_frame(study) if levers is None else levers
+                source, column = levers, "lever"
             if not len(source):
                 continue
-            column = "variant" if folder == "records" else "lever"
-            if folder != "records":
-                source = source.assign(lever=[lever_of(p) for p in source["record_path"]])
             found = source[(source["task"] == task) & (source[column] == name)]
             found = found[[bool(seeds(s)) for s in found["seed"]]]
             mine = [(task, s) in have for s in found["seed"]]
@@ -359,6 +359,13 @@ def cost_note(df: pd.DataFrame) -> str:
         "processor's seconds are not another's, and one brand string, AMD EPYC, names processors of "
         f"different speeds): {where}. Compare costs only between cells on one processor.\n"
     )
+
+
+def cost_on(g: pd.DataFrame) -> str | None:
+    """The processor (short) the CPU seconds of the trials ``g`` come from (:func:`frame`'s
+    ``cost_processor``); ``None`` where none counts."""
+    on = g.loc[g["cpu_seconds"].notna(), "cost_processor"].dropna() if "cost_processor" in g else ()
+    return short_processor(on.iloc[0]) if len(on) else None
 
 
 def short_processor(cpu: str | None) -> str:
@@ -3252,11 +3259,10 @@ def findings(df: pd.DataFrame) -> str:
             continue
         k, c, n = int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)
         verdicts[task] = target(k, c, n)
-        on = g["cost_processor"].dropna() if "cost_processor" in g else pd.Series(dtype=object)
         out.append(
             f"- **{task}**: `{METHOD}` completes {of(k, n)} and finishes {of(c, n)} cleanly "
             f"(median {median(g['cpu_seconds'])} CPU-s a trial"
-            + (f" on the {short_processor(on.iloc[0])}" if len(on) else "")
+            + (f" on the {on}" if (on := cost_on(g)) else "")
             + f"); target {verdicts[task]}."
         )
     met = [t for t, v in verdicts.items() if v.startswith("met")]
@@ -3510,8 +3516,7 @@ def glance(study) -> list[dict]:
                     + (" (the default)" if method == METHOD and task in default_tasks else ""),
                     g.assign(compute=g["cpu_seconds"]),
                 )
-                on = g["cost_processor"].dropna() if "cost_processor" in g else g.iloc[0:0]
-                if len(on) and g["cpu_seconds"].notna().any():  # whose seconds they are
-                    row["median CPU-s per trial"] += f" on {short_processor(on.iloc[0])}"
+                if on := cost_on(g):  # whose seconds they are
+                    row["median CPU-s per trial"] += f" on {on}"
                 rows.append(row)
     return rows
