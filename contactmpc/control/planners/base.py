@@ -211,6 +211,10 @@ class Planner:
             points added to the nominal on the control points both windows cover (the nominal elsewhere),
             so a reset or a carry shift of the nominal since is kept. The same rollouts a plan, so the
             latency model charges nothing more. 0 (the paper): every sample fresh.
+        reuse_after: with ``reuse``, carry the runners-up only into the plans from this many seconds after
+            the reference's first expected contact (not the paper's; ``acquire_until``'s 2 s: once the
+            grasp's plans of ``acquire_samples`` are over), so the grasp is won by fresh samples alone
+            and the lift and carry keep their runners-up; ``None`` (the default): into every plan.
     """
 
     needs_rollouts = True
@@ -256,6 +260,7 @@ class Planner:
         switch_back_after: float | None = None,
         switch_back_held: bool = False,
         reuse: Annotated[int, Ge(0)] = 0,
+        reuse_after: float | None = None,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -356,6 +361,7 @@ class Planner:
         # (switch_back_after, switch_back_held) when to go back (inf: only on the hold), and the problem
         self._back: tuple[float, Problem] | None = None
         self.reuse = int(reuse)
+        self.reuse_after = None if reuse_after is None else float(reuse_after)
         # (reuse) the last plan's runners-up: its window and their differences from what it committed
         self._kept: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -781,7 +787,7 @@ class Planner:
         window = self.problem.spline.window_indices(t, self._horizon_now)
         self._noise_scale = self.noise_scale(t, window, iteration)
         candidates = self.sample(rng, self.theta[window], window)
-        if iteration == 0 and self._kept is not None:
+        if iteration == 0 and self._kept is not None and self.reusing(t):
             self.reused(candidates, window)
         thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
         thetas[:, window] = candidates
@@ -882,6 +888,15 @@ class Planner:
         expected contact (never without one)."""
         first = getattr(self.problem, "first_contact", None)
         return first is not None and t < first + self.acquire_until - 1e-9
+
+    def reusing(self, t: float) -> bool:
+        """Whether a plan at reference time ``t`` takes in the last plan's runners-up (``reuse``): from
+        ``reuse_after`` after the first expected contact (always where it is ``None``, or without an
+        expected contact)."""
+        first = getattr(self.problem, "first_contact", None)
+        if self.reuse_after is None or first is None:
+            return True
+        return t >= first + self.reuse_after - 1e-9
 
     def horizon_at(self, t: float) -> float:
         """The horizon (s) of a plan at reference time ``t``: ``acquire_horizon`` where
