@@ -1184,11 +1184,40 @@ def test_reuse_carries_the_last_plans_runners_up_into_the_next_plan():
     problem.engine.close()
 
 
+def test_reuse_after_carries_the_runners_up_only_from_then_on():
+    """planner.reuse_after: before that long after the first expected contact a plan is reuse=0's bit for
+    bit (its runners-up kept but not carried in); from then on its last rows are the kept runners-up."""
+    problem = PointMassProblem(sigma=0.4)
+    on = PredictiveSampling(num_samples=12, horizon=0.5, reuse=3, reuse_after=0.3)
+    off = PredictiveSampling(num_samples=12, horizon=0.5)
+    problem.bind(on)
+    problem.bind(off)
+    on.problem.first_contact = off.problem.first_contact = 0.2
+    seen_on, seen_off = _evaluated(on), _evaluated(off)
+    for k, t in enumerate((0.0, 0.1, 0.4)):  # the gate opens at 0.2 + 0.3 = 0.5
+        on.plan(t, problem.state, np.random.default_rng(k))
+        off.plan(t, problem.state, np.random.default_rng(k))
+        np.testing.assert_array_equal(seen_on[k][0], seen_off[k][0])
+        np.testing.assert_array_equal(on.theta, off.theta)
+    assert not on.reusing(0.49) and on.reusing(0.5) and on._kept is not None
+    on.plan(0.5, problem.state, np.random.default_rng(5))
+    off.plan(0.5, problem.state, np.random.default_rng(5))
+    np.testing.assert_array_equal(seen_on[3][0][:-3], seen_off[3][0][:-3])  # the fresh draws
+    assert not np.array_equal(seen_on[3][0][-3:], seen_off[3][0][-3:])  # the runners-up
+    on.problem.first_contact = None  # without an expected contact: into every plan, as reuse_after=None
+    assert on.reusing(0.0)
+    problem.engine.close()
+
+
 def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
-    """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit."""
+    """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit;
+    reuse=elites_after_grasp composes (8, from 2 s after the first expected contact)."""
     overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
     assert record["status"] == "ok" and record["config"]["planner"]["reuse"] == 8
     zero = run_job(overrides + ["reuse=elites", "planner.reuse=0"], tmp_path / "zero")
     assert_same_series(base, zero)
+    after = json.loads(run_job(overrides + ["reuse=elites_after_grasp"], tmp_path / "after").read_text())
+    assert after["status"] == "ok" and after["config"]["planner"]["reuse"] == 8
+    assert after["config"]["planner"]["reuse_after"] == 2.0
