@@ -1001,6 +1001,8 @@ LEVER_TEXT = {
     "the retraction and its repeats (`sampler.release.retract_margin`; the method's 0: the planning "
     "model's contacts only), so a link resting on the knob in the plant, just apart in the planning model, "
     "is moved off too",
+    "planner.reuse=4": "4 of the last plan's runners-up carried into the next (`planner.reuse`; "
+    "`reuse=elites`'s 8), so a plan of 32 samples draws 28 fresh",
     "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
     "contact (`sampler.release.hold`; `release=halt`'s 2 s), so a set-down the reference still makes in "
     "its last 2 s of contact (the bottle's) is not stopped short in the air",
