@@ -8,17 +8,21 @@
 
 Errors that come from bad input (config, reference files, scenes) are printed as one line naming the
 problem, and the process exits with status 1. Ctrl-C leaves the trial's record (status
-``interrupted``), prints one line and exits with status 130. A multirun ends with one summary line
-(:class:`sweep_summary.SweepSummary`, a Hydra callback beside this file) and a non-zero exit status
-unless every job finished.
+``interrupted``), prints one line and exits with status 130; so does a SIGTERM (``timeout``, ``kill``, a
+cluster's scheduler at its time limit), in the process that runs the trial and in a sweep's own. A
+multirun ends with one summary line (:class:`sweep_summary.SweepSummary`, a Hydra callback beside this
+file) and a non-zero exit status unless every job finished.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -200,7 +204,35 @@ def run_job(cfg: DictConfig, labels: dict) -> dict:
         return _run(cfg, output_dir, config, labels)
 
 
+class Terminated(KeyboardInterrupt):
+    """A SIGTERM, raised where it arrives: a job ends as on Ctrl-C (status ``interrupted``, its record
+    written), with the signal named."""
+
+
+def _terminated(signum: int, frame: Any) -> None:
+    raise Terminated(f"terminated by {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def sigterm_interrupts():
+    """While it is open, a SIGTERM raises :class:`Terminated` (in the main thread of a process, where
+    Python runs signal handlers; elsewhere nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGTERM, _terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
+
+
 def _run(cfg: DictConfig, output_dir: Path, config: dict, labels: dict) -> dict:
+    with sigterm_interrupts():
+        return _run_job(cfg, output_dir, config, labels)
+
+
+def _run_job(cfg: DictConfig, output_dir: Path, config: dict, labels: dict) -> dict:
     job = None
     try:
         # Nonsense values fail first, before any work (contactmpc.validate); then the job's objects
@@ -227,8 +259,9 @@ def _run(cfg: DictConfig, output_dir: Path, config: dict, labels: dict) -> dict:
             state = _sweep_state()
             if state is not None:  # no new job of this sweep starts
                 (state / "STOP").touch()
+            why = f" ({err})" if str(err) else ""
             where = f"; record: {record}" if record.exists() else ""
-            print(f"contactmpc: interrupted{where}", file=sys.stderr)
+            print(f"contactmpc: interrupted{why}{where}", file=sys.stderr)
         else:
             # One line that names the problem; the trial's record (if it got that far) says the same.
             print(f"contactmpc: error: {one_line(err)}", file=sys.stderr)
@@ -257,7 +290,8 @@ def main(cfg: DictConfig) -> dict:
 
 if __name__ == "__main__":
     try:
-        main()
-    except KeyboardInterrupt:  # outside a job (a job's Ctrl-C is handled in run_job)
-        print("contactmpc: interrupted", file=sys.stderr)
+        with sigterm_interrupts():
+            main()
+    except KeyboardInterrupt as err:  # outside a job (a job's Ctrl-C is handled in run_job)
+        print(f"contactmpc: interrupted{f' ({err})' if str(err) else ''}", file=sys.stderr)
         sys.exit(130)

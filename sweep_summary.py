@@ -49,7 +49,9 @@ class SweepSummary(Callback):
 
     Ctrl-C during a multirun whose jobs run in other processes stops it gently: the jobs running (which
     get the same Ctrl-C from the terminal) write their records with status ``interrupted``, no new job
-    starts, and the summary follows; a second Ctrl-C aborts at once.
+    starts, and the summary follows; a second Ctrl-C aborts at once. A SIGTERM is taken as a Ctrl-C
+    (``timeout`` and a cluster's scheduler signal every process of the job, so the jobs running get it
+    too and end as ``interrupted``; launch.py's jobs take it as their Ctrl-C).
     """
 
     COUNTED = ("ok", "diverged", "error", "interrupted")
@@ -66,13 +68,15 @@ class SweepSummary(Callback):
         self.in_job = False  # a job runs in this process (the basic launcher)
         self.stopping = False
         self._sigint: Any = None
+        self._sigterm: Any = None
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
         self.sweep_dir = Path(str(config.hydra.sweep.dir)).absolute()
         (self.sweep_dir / STATE_DIR).mkdir(parents=True, exist_ok=True)
         self.state = Path(tempfile.mkdtemp(prefix="multirun-", dir=self.sweep_dir / STATE_DIR))
-        with contextlib.suppress(ValueError):  # not the main thread: keep Python's handler
+        with contextlib.suppress(ValueError):  # not the main thread: keep Python's handlers
             self._sigint = signal.signal(signal.SIGINT, self._on_sigint)
+            self._sigterm = signal.signal(signal.SIGTERM, self._on_sigint)
 
     def _on_sigint(self, signum: int, frame: Any) -> None:
         if self.in_job or self.stopping:
@@ -112,6 +116,8 @@ class SweepSummary(Callback):
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
         if self._sigint is not None:
             signal.signal(signal.SIGINT, self._sigint)
+        if self._sigterm is not None:
+            signal.signal(signal.SIGTERM, self._sigterm)
         if self.state is None:
             return
         os.environ.pop(SWEEP_STATE_ENV, None)

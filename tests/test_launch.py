@@ -286,6 +286,55 @@ def test_ctrl_c_leaves_an_interrupted_record_and_one_line(tmp_path, refs):
 
 
 @pytest.mark.slow
+def test_sigterm_leaves_an_interrupted_record_and_one_line(tmp_path, refs):
+    """A SIGTERM (``kill``, ``timeout``) ends a trial as Ctrl-C does, the signal named."""
+    run = tmp_path / "run"
+    p = start(
+        "task=apple", f"task.reference_path={refs['apple']}", "duration=20", f"hydra.run.dir={run}", *QUIET
+    )
+    wait_for(lambda: locked(run))
+    time.sleep(2.0)
+    p.send_signal(signal.SIGTERM)
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err
+    line = f"contactmpc: interrupted (terminated by SIGTERM); record: {run / 'trial.json'}"
+    assert err.strip().splitlines() == [line]
+    record = json.loads((run / "trial.json").read_text())
+    assert record["status"] == "interrupted" and record["error"] == "Terminated: terminated by SIGTERM"
+
+
+@pytest.mark.slow
+def test_sigterm_to_a_sweeps_processes_stops_it_as_ctrl_c_does(tmp_path, refs):
+    """``timeout`` or a scheduler signals every process of a sweep: its running jobs leave interrupted
+    records, no new job starts, and the summary follows."""
+    sweep = tmp_path / "sweep"
+    args = (
+        "-m",
+        "task=apple",
+        f"task.reference_path={refs['apple']}",
+        "duration=20",
+        f"hydra.sweep.dir={sweep}",
+    )
+    first = start(
+        *args, "seed=0,1,2", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", "planner.nthread=1", *QUIET
+    )
+    try:
+        wait_for(lambda: sum(locked(d) for d in sweep.glob("*seed=*")) == 2)
+        time.sleep(2.0)
+    finally:
+        os.killpg(first.pid, signal.SIGTERM)
+        out, err = first.communicate(timeout=120)
+    assert first.returncode == 130, err
+    assert summary(out).endswith(
+        ": 3 jobs: 0 ok / 0 diverged / 0 error / 2 interrupted, 0 skipped, 1 not started (interrupted)"
+    )
+    assert (
+        err.count("contactmpc: interrupted (terminated by SIGTERM); record: ") == 2 and "Traceback" not in err
+    )
+    assert sorted(rec["status"] for rec in records(sweep).values()) == ["interrupted", "interrupted"]
+
+
+@pytest.mark.slow
 def test_resume_refuses_a_different_trial_unless_told_to_overwrite(tmp_path, refs):
     run = tmp_path / "run"
     apple = ["task=apple", f"task.reference_path={refs['apple']}", "duration=0.1", *TINY, *QUIET]
