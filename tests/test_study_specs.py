@@ -662,6 +662,43 @@ def test_the_method_study_lets_the_trials_of_an_equivalent_config_stand_in_for_t
     )
 
 
+def test_the_method_study_counts_where_each_option_rescues_the_method_and_where_it_costs_it(
+    monkeypatch,
+) -> None:
+    """rescues: seed by seed against the method, per task, the method's unclean trials an option finishes
+    cleanly and its clean ones the option does not; per task where the method misses the target, the
+    options that finish at least half of its failures, with what they lose elsewhere."""
+    import pandas as pd
+
+    spec = Study("method").spec
+
+    def trials(task, variant, seeds, clean, **extra):
+        return pd.DataFrame({"task": task, "variant": variant, "seed": list(seeds), "counted": True,
+                             "completed": True, "finished_cleanly": clean, **extra})  # fmt: skip
+
+    method = spec.METHOD
+    other = next(m for m in spec.ORDER if m not in (method, spec.free_base()))
+    df = pd.concat([
+        trials("apple", method, range(10), [s < 5 for s in range(10)]),
+        trials("stapler", method, range(10), True),
+        trials("apple", other, range(5, 10), True),
+        trials("stapler", other, range(10), False),
+    ], ignore_index=True)  # fmt: skip
+    lever = trials("apple", method, [5, 6, 0], [True, False, False], lever="planner.reuse=4")
+    monkeypatch.setattr(spec, "heldout_frame", lambda study, chosen: (df.iloc[0:0], None, None))
+    monkeypatch.setattr(spec, "lever_frame", lambda study: lever)
+    rows = dict(spec.rescue_rows(None, df))
+    assert rows[other] == {"apple": (5, 5, 0, 0), "stapler": (0, 0, 10, 10)}
+    assert rows["planner.reuse=4"] == {"apple": (1, 2, 1, 1)}
+    text = spec.rescues(None, df)
+    assert f"| `{other}` |  | 5 of 5 / 0 of 0 |  | 0 of 0 / 10 of 10 |" in text
+    assert (
+        f"`{other}` finishes 5 of the 5 (stapler: loses 10 of 10 of the method's clean trials it ran)" in text
+    )
+    assert "`planner.reuse=4` finishes 1 of the 2 (run on no other task)" in text
+    assert "**stapler**" not in text  # the method meets the target there
+
+
 def test_the_method_study_sets_its_held_out_seeds_beside_the_seeds_it_was_chosen_on(monkeypatch) -> None:
     """heldout: per method and task, the held-out trials' completed and clean counts beside the sweep's, with
     the difference and Barnard's test; a line where the method has none (the rows are another's); without a

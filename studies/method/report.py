@@ -3400,6 +3400,122 @@ def levers_target(study) -> str:
     )
 
 
+def rescue_rows(study, df: pd.DataFrame) -> list[tuple[str, dict[str, tuple[int, int, int, int]]]]:
+    """Per option against :data:`METHOD` seed by seed (the sweep's seeds and the held-out ones, its
+    stand-ins counted in): each other method of the sweep and each lever run on :data:`METHOD` or on
+    :func:`free_base` (the method on the free objects), per task ``(rescued, unclean, lost, clean)``: of
+    the method's trials that did not finish cleanly on the seeds the option ran, how many the option
+    finishes cleanly, and of those that did, how many it does not."""
+    held, _, _ = heldout_frame(study, df)
+    mine = pd.concat([counted(df), held]) if len(held) else counted(df)
+    mine = mine[mine["variant"] == METHOD] if len(mine) else mine
+    clean_of = {(r["task"], int(r["seed"])): bool(r["finished_cleanly"]) for r in mine.to_dict("records")}
+    options: dict[str, pd.DataFrame] = {}
+    sweep = counted(df)
+    others = pd.concat([sweep, held]) if len(held) else sweep
+    for method in ORDER:
+        if method in (METHOD, free_base()) or not len(others):
+            continue
+        g = others[others["variant"] == method]
+        if "stand_in" in g:
+            g = g[g["stand_in"].isna()]
+        if len(g):
+            options[method] = g
+    levers = lever_frame(study)
+    equivalent = {
+        name for rule in EQUIVALENT.get(METHOD, {}).values() for folder, name in [rule] if folder == LEVERS
+    }
+    for lever, g in levers.groupby("lever", sort=True) if len(levers) else ():
+        on = built_on(g)
+        if on in (METHOD, free_base()) and lever not in equivalent:
+            options[lever if on == METHOD else f"{lever}` on `{on}"] = g
+    rows = []
+    for name, g in options.items():
+        cells = {}
+        for task in plan()[0]:
+            pairs = [
+                (bool(r["finished_cleanly"]), clean_of[(task, int(r["seed"]))])
+                for r in g[g["task"] == task].to_dict("records")
+                if (task, int(r["seed"])) in clean_of
+            ]
+            if pairs:
+                cells[task] = (
+                    sum(a and not b for a, b in pairs),
+                    sum(not b for _, b in pairs),
+                    sum(b and not a for a, b in pairs),
+                    sum(b for _, b in pairs),
+                )
+        if cells:
+            rows.append((name, cells))
+    return rows
+
+
+def rescues(study, df: pd.DataFrame) -> str:
+    """Which options finish the trials :data:`METHOD` does not, and what they cost it on the other tasks
+    (:func:`rescue_rows`): a table and, per task where the method misses the target, a sentence."""
+    rows = rescue_rows(study, df)
+    if not rows:
+        return ""
+    tasks = plan()[0]
+    head = (
+        f"What the other methods and the levers on `{METHOD}` do on the seeds where it fails and where it "
+        "does not (seed by seed, the sweep's seeds and the held-out ones): per task, of the method's trials "
+        "that did not finish cleanly on the seeds the option ran, how many the option finishes cleanly "
+        "(*rescued*), and of those that did, how many it does not (*lost*). A trial run on another "
+        "processor than the method's is another draw of the same seed, so a few of these pairs compare "
+        "draws, not the option alone.\n\n"
+    )
+
+    def fmt(cell):
+        if cell is None:
+            return ""
+        rescued, unclean, lost, clean = cell
+        return f"{rescued} of {unclean} / {lost} of {clean}"
+
+    cols = ["option"] + [f"{t}: rescued / lost" for t in tasks]
+    body = [
+        "| " + " | ".join([f"`{name}`"] + [fmt(cells.get(t)) for t in tasks]) + " |" for name, cells in rows
+    ]
+    out = head + pipe_table(cols, "l" + "r" * len(tasks), body) + "\n"
+    ok = counted(df)
+    lines = []
+    for task in tasks:
+        g = cell(ok, task, METHOD)
+        if len(g) < TARGET_SEEDS or (
+            g["completed"].sum() >= TARGET_COMPLETED and g["finished_cleanly"].sum() >= TARGET_CLEAN
+        ):
+            continue
+        good = [
+            (name, cells)
+            for name, cells in rows
+            if task in cells and cells[task][1] >= 2 and 2 * cells[task][0] >= cells[task][1]
+        ]
+        if not good:
+            lines.append(f"- **{task}** (target missed): no option finishes half of the method's failures.")
+            continue
+        parts = []
+        for name, cells in good:
+            rescued, unclean = cells[task][:2]
+            cost = [
+                f"{t}: loses {c[2]} of {c[3]}"
+                for t, c in ((t, cells.get(t)) for t in tasks)
+                if t != task and c
+            ]
+            parts.append(
+                f"`{name}` finishes {rescued} of the {unclean}"
+                + (
+                    f" ({'; '.join(cost)} of the method's clean trials it ran)"
+                    if cost
+                    else " (run on no other task)"
+                )
+            )
+        lines.append(
+            f"- **{task}** (target missed): the options that finish at least half of the method's trials "
+            "that did not finish cleanly (of at least 2 they ran): " + "; ".join(parts) + "."
+        )
+    return out + ("\n" + "\n".join(lines) + "\n" if lines else "")
+
+
 def report(study) -> str:
     df = frame(study)
     rough = rough_frame(study)
@@ -3429,6 +3545,8 @@ def report(study) -> str:
         "records: the milestones they missed; the object error where the contact span ends against the "
         "trial's end). The timelines of the trials that failed are under *Failures*.\n\n"
         + shortfall(df, study)
+        + "\n## Where each option rescues the method and where it costs it\n\n"
+        + rescues(study, df)
         + "\n## Per task and method\n\n"
         "Trials: those that ran to their end (a diverged trial counts, not completed), of the planned seeds. "
         "The object error is the free body's position (mm), or on the doorknob its articulations "
