@@ -2617,6 +2617,72 @@ def settles(rows: pd.DataFrame) -> str:
     return "".join(out)
 
 
+GRASP_CONTACTS = "grasp_contacts.csv"
+#: the index alone on the object for more than this share of the grasp's window: "mostly alone"
+ALONE = 0.5
+
+
+def grasp_contacts(rows: pd.DataFrame) -> str:
+    """Which links are on the object while the grasp is won (:data:`GRASP_CONTACTS`' rows: ``task``,
+    ``option``, ``thumb``, ``index_alone``, ``any`` (shares of the window's samples), ``lifted``,
+    ``grasp``; ``studies/method/grasp_contacts.py``): per task, the mean shares of the trials that lifted the
+    object and of those that did not; the trials with the index mostly alone on it, and how many of them
+    lifted it (Barnard's test against the others); per option with at least 5 trials of a task, the same."""
+    if not len(rows):
+        return ""
+    window = float(rows["grasp"].iloc[0])
+    out = [
+        "Every kept trial of this study on a free object whose time series is kept (the levers' and the "
+        f"held-out trials; `python studies/method/grasp_contacts.py`; {len(rows)} trials of every option): "
+        f"over the {window:g} s from the reference's first expected contact (effort=acquire's window, where "
+        "the grasp is won), the share of the logged samples on which a thumb link touches the object, on "
+        "which an index link does and no other link (*index alone*), and on which any link does; the mean "
+        "over the trials that lifted the object and over those that did not.\n\n"
+        "| task | lifted: trials | thumb | index alone | any link | not lifted: trials | thumb | index alone "
+        "| any link |\n|---|--:|--:|--:|--:|--:|--:|--:|--:|\n"
+    ]
+    lines = []
+    for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        mine = rows[rows["task"] == task]
+        cells = []
+        for lifted in (True, False):
+            g = mine[mine["lifted"] == lifted]
+            shares = [f"{g[c].mean():.2f}" if len(g) else "—" for c in ("thumb", "index_alone", "any")]
+            cells += [str(len(g)), *shares]
+        name = task.removeprefix("paper_")
+        out.append(f"| {name} | " + " | ".join(cells) + " |\n")
+        alone = mine["index_alone"] > ALONE
+        if alone.sum() and (~alone).sum():
+            a, b = mine[alone], mine[~alone]
+            p, _ = completion_test(int(a["lifted"].sum()), len(a), int(b["lifted"].sum()), len(b))
+            lines.append(
+                f"- {name}: with the index alone on it for more than {ALONE:.0%} of the window, lifted "
+                f"{of(int(a['lifted'].sum()), len(a))}; otherwise {of(int(b['lifted'].sum()), len(b))} "
+                f"(Barnard p = {Fmt.p(p)})."
+            )
+    per_option = []
+    for (task, name), g in rows.groupby(["task", "option"], sort=True):
+        if len(g) >= 5:
+            per_option.append(
+                f"| {task.removeprefix('paper_')} | `{name}` | {len(g)} "
+                f"| {of(int(g['lifted'].sum()), len(g))} | {g['thumb'].mean():.2f} | {g['index_alone'].mean():.2f} | "
+                f"{int((g['index_alone'] > ALONE).sum())} |"
+            )
+    text = "".join(out) + ("\n" + "\n".join(lines) + "\n" if lines else "")
+    if per_option:
+        text += (
+            "\nPer option with at least 5 trials of a task (a lever's overrides after its method's name, "
+            "`+`): the trials, those that lifted the object, the mean shares, and the trials with the index "
+            "alone on it for more than half of the window.\n\n"
+            + pipe_table(
+                ["task", "option", "trials", "lifted", "thumb", "index alone", "index mostly alone"],
+                "llrrrrr",
+                per_option,
+            )
+        )
+    return text
+
+
 FIRST_TOUCHES = "first_touch.csv"
 #: The bins of the first touch (s after the reference's first expected contact) and their names.
 TOUCH_BINS = (-np.inf, -0.01, 0.2, 0.7, np.inf)
@@ -3578,6 +3644,13 @@ def report(study) -> str:
             PLAN_COSTS,
             plan_costs,
             "Not benchmarked yet (`python studies/method/plan_benchmark.py`).\n",
+        )
+        + "\n## Who is on the object while the grasp is won\n\n"
+        + from_figures(
+            study,
+            GRASP_CONTACTS,
+            grasp_contacts,
+            "Not measured yet (`python studies/method/grasp_contacts.py`).\n",
         )
         + "\n## When the hand first touches the object\n\n"
         + from_figures(
