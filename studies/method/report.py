@@ -2665,8 +2665,8 @@ def grasp_contacts(rows: pd.DataFrame) -> str:
         if len(g) >= 5:
             per_option.append(
                 f"| {task.removeprefix('paper_')} | `{name}` | {len(g)} "
-                f"| {of(int(g['lifted'].sum()), len(g))} | {g['thumb'].mean():.2f} | {g['index_alone'].mean():.2f} | "
-                f"{int((g['index_alone'] > ALONE).sum())} |"
+                f"| {of(int(g['lifted'].sum()), len(g))} | {g['thumb'].mean():.2f} "
+                f"| {g['index_alone'].mean():.2f} | {int((g['index_alone'] > ALONE).sum())} |"
             )
     text = "".join(out) + ("\n" + "\n".join(lines) + "\n" if lines else "")
     if per_option:
