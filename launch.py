@@ -26,7 +26,9 @@ import threading
 from pathlib import Path
 from typing import Any
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+from contactmpc.gl import default_gl
+
+default_gl()  # before MuJoCo is first imported: egl where libEGL loads, else disable
 
 import hydra  # noqa: E402
 from hydra.core.config_store import ConfigStore  # noqa: E402

@@ -10,14 +10,16 @@
 Expected contacts are drawn as small spheres (link point green, object point red, joined by a thin
 line); links actually touching the object are tinted orange. Text is drawn with Pillow (a matplotlib
 dependency). Set ``MUJOCO_GL=egl`` (headless GPU/Mesa) or ``osmesa`` before MuJoCo creates its first
-context; this module and ``launch.py`` default it to ``egl``.
+context; this module and ``launch.py`` default it to ``egl`` where libEGL loads, else to ``disable``
+(:mod:`contactmpc.gl`), with which MuJoCo imports but cannot render: a renderer then raises one line saying
+what to install or set.
 """
 
 from __future__ import annotations
 
-import os
+from contactmpc.gl import default_gl, require_gl
 
-os.environ.setdefault("MUJOCO_GL", "egl")  # headless by default; read when the first context is made
+default_gl()  # headless (egl) by default where libEGL loads; read when MuJoCo is first imported
 
 from collections.abc import Mapping, Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -88,13 +90,19 @@ def render_frame(
         (H, W, 3) uint8 image.
     """
     own = renderer is None
-    r = mujoco.Renderer(model, *size) if own else renderer
+    r = _renderer(model, size) if own else renderer
     try:
         r.update_scene(data, camera)
         return r.render().copy()
     finally:
         if own:
             r.close()
+
+
+def _renderer(model: mujoco.MjModel, size: Sequence[int]) -> mujoco.Renderer:
+    """``mujoco.Renderer(model, *size)``, or :class:`~contactmpc.gl.NoGLError` where OpenGL is off."""
+    require_gl()
+    return mujoco.Renderer(model, *size)
 
 
 # ---------------------------------------------------------------------------------------- overlays
@@ -265,7 +273,7 @@ def render_reference_filmstrip(
     phases = reference.meta.get("phases") if phases is None else phases
     picks = filmstrip_frames(reference, num_frames, phases)
     m, data, cam = scene.plant_model, mujoco.MjData(scene.plant_model), task_camera(scene)
-    renderer = mujoco.Renderer(m, *size)
+    renderer = _renderer(m, size)
     panels = []
     try:
         for f, name in picks:
@@ -368,7 +376,7 @@ def render_trial_video(
     time, qpos = np.asarray(series["time"], float), np.asarray(series["qpos"], float)
     touching = series.get("contacts")
     m, data, cam = scene.plant_model, mujoco.MjData(scene.plant_model), task_camera(scene)
-    renderer = mujoco.Renderer(m, *size)
+    renderer = _renderer(m, size)
     frames = []
     try:
         for t in video_times(time, fps, speed):
@@ -449,7 +457,7 @@ def render_trial_frames(
     cam.distance *= zoom
     body = int(scene.index.object_bodies[0]) if len(scene.index.object_bodies) else -1
     follow = body if zoom != 1.0 else -1
-    renderer = mujoco.Renderer(m, *size)
+    renderer = _renderer(m, size)
     rows: list[list[np.ndarray]] = [[], []]
     try:
         for t in times:
