@@ -215,6 +215,11 @@ class Planner:
             the reference's first expected contact (not the paper's; ``acquire_until``'s 2 s: once the
             grasp's plans of ``acquire_samples`` are over), so the grasp is won by fresh samples alone
             and the lift and carry keep their runners-up; ``None`` (the default): into every plan.
+        reuse_fingers: with ``reuse``, carry the runners-up only into the plans whose state has at least
+            this many fingers on the object (not the paper's; a finger: the hand's contact links named
+            ``<finger>_*``, touching the object in the planning model at the plan's state), so a plan
+            with one finger alone on the object (the stapler's index, pushing it before the thumb comes)
+            draws every sample fresh; 0 (the default): into every plan.
     """
 
     needs_rollouts = True
@@ -261,6 +266,7 @@ class Planner:
         switch_back_held: bool = False,
         reuse: Annotated[int, Ge(0)] = 0,
         reuse_after: float | None = None,
+        reuse_fingers: Annotated[int, Ge(0)] = 0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -362,6 +368,8 @@ class Planner:
         self._back: tuple[float, Problem] | None = None
         self.reuse = int(reuse)
         self.reuse_after = None if reuse_after is None else float(reuse_after)
+        self.reuse_fingers = int(reuse_fingers)
+        self._reuse_gate = True  # (reuse_fingers) whether this plan's state has the fingers it asks for
         # (reuse) the last plan's runners-up: its window and their differences from what it committed
         self._kept: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -787,7 +795,7 @@ class Planner:
         window = self.problem.spline.window_indices(t, self._horizon_now)
         self._noise_scale = self.noise_scale(t, window, iteration)
         candidates = self.sample(rng, self.theta[window], window)
-        if iteration == 0 and self._kept is not None and self.reusing(t):
+        if iteration == 0 and self._kept is not None and self._reuse_gate and self.reusing(t):
             self.reused(candidates, window)
         thetas = np.broadcast_to(self.theta, (len(candidates),) + self.theta.shape).copy()
         thetas[:, window] = candidates
@@ -840,6 +848,8 @@ class Planner:
         self.phase(s, prediction)
         self._at_horizon(self.horizon_at(s))
         self._plan_samples = self.samples_at(s)
+        if self.reuse and self.reuse_fingers:
+            self._reuse_gate = self.fingers_touching(state) >= self.reuse_fingers
         try:
             info = self._plan(s, state, rng, start)
         finally:
@@ -888,6 +898,15 @@ class Planner:
         expected contact (never without one)."""
         first = getattr(self.problem, "first_contact", None)
         return first is not None and t < first + self.acquire_until - 1e-9
+
+    def fingers_touching(self, state: np.ndarray) -> int:
+        """How many fingers touch the object in the full-physics ``state`` (the planning model's contacts):
+        the distinct ``<finger>`` of the touching contact links named ``<finger>_*`` (a link without one,
+        the palm, is no finger)."""
+        scene = self.problem.scene
+        touching = scene.link_contacts(self._forwarded(state))
+        names = scene.hand.link_names
+        return len({names[i].split("_", 1)[0] for i in np.flatnonzero(touching) if "_" in names[i]})
 
     def reusing(self, t: float) -> bool:
         """Whether a plan at reference time ``t`` takes in the last plan's runners-up (``reuse``): from
