@@ -7,7 +7,7 @@ clearance_grasp``), ``release`` (``none | reset | open | scheduled | flat | back
 ``compensation`` (``none | predict``), ``effort`` (``uniform | acquire | acquire_half | acquire_short``),
 ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``), ``carry`` (``none | wrist | pose |
 held``), ``grip`` (``none | squeeze | carried | touched``), ``retarget`` (``none | wrist``), ``rollout``
-(``paper | fine``) and ``reuse`` (``none | elites | elites_after_grasp``).
+(``paper | fine``) and ``reuse`` (``none | elites | elites_after_grasp | elites_grasped``).
 Records made before the groups existed name the combination by one variant label (``variant:
 release_flat``); records made before the release schedule was one object store its options as flat sampler
 keys (``sampler.release_pause``); records made before a group existed read as its default.

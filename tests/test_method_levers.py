@@ -1209,9 +1209,43 @@ def test_reuse_after_carries_the_runners_up_only_from_then_on():
     problem.engine.close()
 
 
+def test_reuse_fingers_carries_the_runners_up_only_where_enough_fingers_touch(monkeypatch):
+    """planner.reuse_fingers: a plan whose state has fewer fingers on the object (the distinct
+    ``<finger>_*`` of the touching links; the palm is none) is reuse=0's bit for bit; one with enough takes
+    the last plan's runners-up in."""
+    from types import SimpleNamespace
+
+    problem = PointMassProblem(sigma=0.4)
+    on = PredictiveSampling(num_samples=12, horizon=0.5, reuse=3, reuse_fingers=2)
+    off = PredictiveSampling(num_samples=12, horizon=0.5)
+    problem.bind(on)
+    problem.bind(off)
+    names = ["palm", "ff_tip", "ff_distal", "th_tip"]
+    touching = {"now": np.array([True, True, True, False])}  # the palm and two links of one finger
+    scene = on.problem.scene
+    on.problem.scene = SimpleNamespace(
+        **vars(scene), hand=SimpleNamespace(link_names=names), link_contacts=lambda data: touching["now"]
+    )
+    monkeypatch.setattr(on, "_forwarded", lambda state: None)
+    assert on.fingers_touching(problem.state) == 1
+    seen_on, seen_off = _evaluated(on), _evaluated(off)
+    for k in range(2):  # the second plan has runners-up kept, but one finger: fresh samples alone
+        on.plan(0.0, problem.state, np.random.default_rng(k))
+        off.plan(0.0, problem.state, np.random.default_rng(k))
+        np.testing.assert_array_equal(seen_on[k][0], seen_off[k][0])
+    touching["now"] = np.array([False, True, False, True])  # the index and the thumb
+    assert on.fingers_touching(problem.state) == 2
+    on.plan(0.0, problem.state, np.random.default_rng(2))
+    off.plan(0.0, problem.state, np.random.default_rng(2))
+    np.testing.assert_array_equal(seen_on[2][0][:-3], seen_off[2][0][:-3])
+    assert not np.array_equal(seen_on[2][0][-3:], seen_off[2][0][-3:])
+    problem.engine.close()
+
+
 def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
     """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit;
-    reuse=elites_after_grasp composes (8, from 2 s after the first expected contact)."""
+    reuse=elites_after_grasp composes (8, from 2 s after the first expected contact), and
+    reuse=elites_grasped (8, while two fingers touch the object) runs."""
     overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
@@ -1221,3 +1255,5 @@ def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, lat
     after = json.loads(run_job(overrides + ["reuse=elites_after_grasp"], tmp_path / "after").read_text())
     assert after["status"] == "ok" and after["config"]["planner"]["reuse"] == 8
     assert after["config"]["planner"]["reuse_after"] == 2.0
+    grasped = json.loads(run_job(overrides + ["reuse=elites_grasped"], tmp_path / "grasped").read_text())
+    assert grasped["status"] == "ok" and grasped["config"]["planner"]["reuse_fingers"] == 2
