@@ -303,18 +303,23 @@ def test_sigterm_leaves_an_interrupted_record_and_one_line(tmp_path, refs):
     assert record["status"] == "interrupted" and record["error"] == "Terminated: terminated by SIGTERM"
 
 
-@pytest.mark.slow
-def test_sigterm_to_a_sweeps_processes_stops_it_as_ctrl_c_does(tmp_path, refs):
-    """``timeout`` or a scheduler signals every process of a sweep: its running jobs leave interrupted
-    records, no new job starts, and the summary follows."""
-    sweep = tmp_path / "sweep"
-    args = (
+def _apple_sweep(sweep, refs) -> tuple[str, ...]:
+    """A multirun of the synthetic apple for 20 s of control into ``sweep`` (its seeds still to choose)."""
+    return (
         "-m",
         "task=apple",
         f"task.reference_path={refs['apple']}",
         "duration=20",
         f"hydra.sweep.dir={sweep}",
     )
+
+
+@pytest.mark.slow
+def test_sigterm_to_a_sweeps_processes_stops_it_as_ctrl_c_does(tmp_path, refs):
+    """``timeout`` or a scheduler signals every process of a sweep: its running jobs leave interrupted
+    records, no new job starts, and the summary follows."""
+    sweep = tmp_path / "sweep"
+    args = _apple_sweep(sweep, refs)
     first = start(
         *args, "seed=0,1,2", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", "planner.nthread=1", *QUIET
     )
@@ -397,13 +402,7 @@ def test_sweep_summary_flat_directories_and_exit_status(tmp_path, refs):
 @pytest.mark.slow
 def test_a_second_process_skips_jobs_in_progress_and_ctrl_c_stops_a_sweep(tmp_path, refs):
     sweep = tmp_path / "sweep"
-    args = (
-        "-m",
-        "task=apple",
-        f"task.reference_path={refs['apple']}",
-        "duration=20",
-        f"hydra.sweep.dir={sweep}",
-    )
+    args = _apple_sweep(sweep, refs)
     slow = ["planner.nthread=1", *QUIET]  # the lite planner: 20 s of control take minutes
     first = start(*args, "seed=0,1,2", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", *slow)
     try:
