@@ -11,11 +11,10 @@ lever's overrides on top) and outcome. Writes ``figures/grasp_contacts.csv``, wh
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
-from release_replay import write_rows  # this folder's script
+from release_replay import series_rows  # this folder's script
 
 from analysis.timeline import link_names
 from contactmpc.labels import method_name
@@ -75,14 +74,7 @@ def row(run: Path) -> dict | None:
 
 
 def main() -> int:
-    runs = sorted(p.parent for folder in FOLDERS for p in (HERE / folder).glob("*/timeseries.npz"))
-    rows = [r for run in runs if (run / "trial.json").is_file() and (r := row(run))]
-    if not rows:
-        print(f"grasp_contacts: no kept trial with its time series under {HERE}", file=sys.stderr)
-        return 1
-    write_rows(rows, CSV)
-    print(f"grasp_contacts: {len(rows)} trials -> {CSV}")
-    return 0
+    return series_rows("grasp_contacts", HERE, FOLDERS, row, CSV)
 
 
 if __name__ == "__main__":

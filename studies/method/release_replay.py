@@ -86,6 +86,20 @@ def scene_of(
     return instantiate(cfg.scene)(hand=instantiate(cfg.hand), task=instantiate(cfg.task))
 
 
+def series_rows(name: str, here: Path, folders, row, path: Path) -> int:
+    """A per-trial script's main: ``row(run)`` (a dict, or None to skip) of every kept trial under
+    ``here``'s ``folders`` whose time series is there, written to ``path`` (:func:`write_rows`); its exit
+    status (1 without a row, saying so as ``name``)."""
+    runs = sorted(p.parent for folder in folders for p in (here / folder).glob("*/timeseries.npz"))
+    rows = [r for run in runs if (run / "trial.json").is_file() and (r := row(run))]
+    if not rows:
+        print(f"{name}: no kept trial with its time series under {here}", file=sys.stderr)
+        return 1
+    write_rows(rows, path)
+    print(f"{name}: {len(rows)} trials -> {path}")
+    return 0
+
+
 def write_rows(rows: list[dict], path: Path) -> None:
     """Write a script's rows to its CSV (``path``, its folder made where missing), as the report reads it."""
     path.parent.mkdir(parents=True, exist_ok=True)
