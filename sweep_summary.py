@@ -75,10 +75,10 @@ class SweepSummary(Callback):
         (self.sweep_dir / STATE_DIR).mkdir(parents=True, exist_ok=True)
         self.state = Path(tempfile.mkdtemp(prefix="multirun-", dir=self.sweep_dir / STATE_DIR))
         with contextlib.suppress(ValueError):  # not the main thread: keep Python's handlers
-            self._sigint = signal.signal(signal.SIGINT, self._on_sigint)
-            self._sigterm = signal.signal(signal.SIGTERM, self._on_sigint)
+            self._sigint = signal.signal(signal.SIGINT, self._on_stop)
+            self._sigterm = signal.signal(signal.SIGTERM, self._on_stop)
 
-    def _on_sigint(self, signum: int, frame: Any) -> None:
+    def _on_stop(self, signum: int, frame: Any) -> None:
         if self.in_job or self.stopping:
             raise KeyboardInterrupt
         self.stopping = True
