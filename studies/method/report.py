@@ -3473,24 +3473,20 @@ def rescue_rows(study, df: pd.DataFrame) -> list[tuple[str, dict[str, tuple[int,
     the method's trials that did not finish cleanly on the seeds the option ran, how many the option
     finishes cleanly, and of those that did, how many it does not."""
     held, _, _ = heldout_frame(study, df)
-    mine = pd.concat([counted(df), held]) if len(held) else counted(df)
-    mine = mine[mine["variant"] == METHOD] if len(mine) else mine
+    every = pd.concat([counted(df), held]) if len(held) else counted(df)  # the sweep's and held-out seeds
+    mine = every[every["variant"] == METHOD] if len(every) else every
     clean_of = {(r["task"], int(r["seed"])): bool(r["finished_cleanly"]) for r in mine.to_dict("records")}
     options: dict[str, pd.DataFrame] = {}
-    sweep = counted(df)
-    others = pd.concat([sweep, held]) if len(held) else sweep
     for method in ORDER:
-        if method in (METHOD, free_base()) or not len(others):
+        if method in (METHOD, free_base()) or not len(every):
             continue
-        g = others[others["variant"] == method]
+        g = every[every["variant"] == method]
         if "stand_in" in g:
             g = g[g["stand_in"].isna()]
         if len(g):
             options[method] = g
     levers = lever_frame(study)
-    equivalent = {
-        name for rule in EQUIVALENT.get(METHOD, {}).values() for folder, name in [rule] if folder == LEVERS
-    }
+    equivalent = {name for folder, name in EQUIVALENT.get(METHOD, {}).values() if folder == LEVERS}
     for lever, g in levers.groupby("lever", sort=True) if len(levers) else ():
         on = built_on(g)
         if on in (METHOD, free_base()) and lever not in equivalent:
@@ -3547,8 +3543,8 @@ def rescues(study, df: pd.DataFrame) -> str:
     lines = []
     for task in tasks:
         g = cell(ok, task, METHOD)
-        if len(g) < TARGET_SEEDS or (
-            g["completed"].sum() >= TARGET_COMPLETED and g["finished_cleanly"].sum() >= TARGET_CLEAN
+        if not target(int(g["completed"].sum()), int(g["finished_cleanly"].sum()), len(g)).startswith(
+            "missed"
         ):
             continue
         good = [
