@@ -220,6 +220,10 @@ class Planner:
             ``<finger>_*``, touching the object in the planning model at the plan's state), so a plan
             with one finger alone on the object (the stapler's index, pushing it before the thumb comes)
             draws every sample fresh; 0 (the default): into every plan.
+        reuse_alone: with ``reuse``, carry the runners-up also into the plans whose state has exactly one
+            finger on the object (as counted for ``reuse_fingers``). False (not the paper's): such a plan
+            draws every sample fresh, while a plan with no finger on the object (the approach) or with two
+            or more keeps them; True (the default): no such gate.
     """
 
     needs_rollouts = True
@@ -267,6 +271,7 @@ class Planner:
         reuse: Annotated[int, Ge(0)] = 0,
         reuse_after: float | None = None,
         reuse_fingers: Annotated[int, Ge(0)] = 0,
+        reuse_alone: bool = True,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -369,6 +374,7 @@ class Planner:
         self.reuse = int(reuse)
         self.reuse_after = None if reuse_after is None else float(reuse_after)
         self.reuse_fingers = int(reuse_fingers)
+        self.reuse_alone = bool(reuse_alone)
         self._reuse_gate = True  # (reuse_fingers) whether this plan's state has the fingers it asks for
         # (reuse) the last plan's runners-up: its window and their differences from what it committed
         self._kept: tuple[np.ndarray, np.ndarray] | None = None
@@ -848,8 +854,9 @@ class Planner:
         self.phase(s, prediction)
         self._at_horizon(self.horizon_at(s))
         self._plan_samples = self.samples_at(s)
-        if self.reuse and self.reuse_fingers:
-            self._reuse_gate = self.fingers_touching(state) >= self.reuse_fingers
+        if self.reuse and (self.reuse_fingers or not self.reuse_alone):
+            fingers = self.fingers_touching(state)
+            self._reuse_gate = fingers >= self.reuse_fingers and (self.reuse_alone or fingers != 1)
         try:
             info = self._plan(s, state, rng, start)
         finally:
