@@ -1242,10 +1242,41 @@ def test_reuse_fingers_carries_the_runners_up_only_where_enough_fingers_touch(mo
     problem.engine.close()
 
 
+def test_reuse_alone_false_carries_the_runners_up_except_where_one_finger_is_alone(monkeypatch):
+    """planner.reuse_alone=False: a plan whose state has exactly one finger on the object is reuse=0's bit
+    for bit; one with none (the approach) or with two takes the last plan's runners-up in."""
+    from types import SimpleNamespace
+
+    problem = PointMassProblem(sigma=0.4)
+    on = PredictiveSampling(num_samples=12, horizon=0.5, reuse=3, reuse_alone=False)
+    off = PredictiveSampling(num_samples=12, horizon=0.5)
+    problem.bind(on)
+    problem.bind(off)
+    names = ["palm", "ff_tip", "ff_distal", "th_tip"]
+    touching = {"now": np.array([False, False, False, False])}
+    scene = on.problem.scene
+    on.problem.scene = SimpleNamespace(
+        **vars(scene), hand=SimpleNamespace(link_names=names), link_contacts=lambda data: touching["now"]
+    )
+    monkeypatch.setattr(on, "_forwarded", lambda state: None)
+    seen_on, seen_off = _evaluated(on), _evaluated(off)
+    for k, now in enumerate(
+        ([False] * 4, [False] * 4, [True, True, True, False], [False, True, False, True])
+    ):  # none (nothing kept yet), none, the palm and one finger, the index and the thumb
+        touching["now"] = np.array(now)
+        on.plan(0.0, problem.state, np.random.default_rng(k))
+        off.plan(0.0, problem.state, np.random.default_rng(k))
+        np.testing.assert_array_equal(seen_on[k][0][:-3], seen_off[k][0][:-3])  # the fresh draws
+        carried = not np.array_equal(seen_on[k][0][-3:], seen_off[k][0][-3:])
+        assert carried == (k in (1, 3)), (k, on.fingers_touching(problem.state))
+    problem.engine.close()
+
+
 def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
     """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit;
     reuse=elites_after_grasp composes (8, from 2 s after the first expected contact), and
-    reuse=elites_grasped (8, while two fingers touch the object) runs."""
+    reuse=elites_grasped (8, while two fingers touch the object) and reuse=elites_unless_alone (8, except
+    while one finger is alone on it) run."""
     overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
@@ -1257,3 +1288,5 @@ def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, lat
     assert after["config"]["planner"]["reuse_after"] == 2.0
     grasped = json.loads(run_job(overrides + ["reuse=elites_grasped"], tmp_path / "grasped").read_text())
     assert grasped["status"] == "ok" and grasped["config"]["planner"]["reuse_fingers"] == 2
+    alone = json.loads(run_job(overrides + ["reuse=elites_unless_alone"], tmp_path / "alone").read_text())
+    assert alone["status"] == "ok" and alone["config"]["planner"]["reuse_alone"] is False
