@@ -116,6 +116,28 @@ def test_the_method_study_compares_costs_on_one_processor_and_says_why_a_trial_i
     assert "at the trial's end 300" in text and "the object moved on after the hand let go" in text
 
 
+def test_the_method_study_reads_the_target_as_a_chance_over_new_seeds() -> None:
+    """The rates the target asks for meet it that often (binomial); the chance that new seeds meet it
+    rises with the clean trials, is near 1 after many clean ones and near 0 after many failures, and sums
+    with the chance of missing it to the whole predictive (the three outcomes' counts over ten seeds)."""
+    from scipy.stats import binom, dirichlet_multinomial
+
+    spec = Study("method").spec
+    n = spec.TARGET_SEEDS
+    for k in (spec.TARGET_COMPLETED, spec.TARGET_CLEAN):
+        p = spec.needed_rate(k)
+        assert 0 < p < 1 and abs(binom.sf(k - 1, n, p) - spec.TARGET_ODDS) < 1e-9
+    assert spec.needed_rate(spec.TARGET_COMPLETED) > spec.needed_rate(spec.TARGET_CLEAN)
+    chances = [spec.meets_target_chance(c, 2, 20 - c) for c in (0, 6, 12, 18)]
+    assert chances == sorted(chances) and chances[0] < 0.01
+    assert spec.meets_target_chance(200, 0, 0) > 0.95 and spec.meets_target_chance(0, 0, 200) < 1e-6
+    alpha = [13 + 1, 4 + 1, 3 + 1]
+    total = sum(
+        dirichlet_multinomial.pmf([a, b, n - a - b], alpha, n) for a in range(n + 1) for b in range(n - a + 1)
+    )
+    assert abs(total - 1) < 1e-9 and 0 < spec.meets_target_chance(13, 4, 3) < 1
+
+
 def test_the_method_studys_after_span_figure_draws_each_trial_from_its_time_series(tmp_path) -> None:
     import numpy as np
     import pandas as pd
