@@ -2,8 +2,9 @@
 grasp is won"): for every kept trial of the study on a free object whose time series is here (the levers'
 and the held-out trials keep theirs in git), over the :data:`GRASP` s from the reference's first expected
 contact, the share of the logged samples on which a thumb link touches the object, on which an index link
-does and no other link (the index alone), and on which any link does; with the trial's option (its method, a
-lever's overrides on top) and outcome. Writes ``figures/grasp_contacts.csv``, which the report reads:
+does and no other link (the index alone), and on which any link does; when any link first touches it (s
+after that expected contact); with the trial's option (its method, a lever's overrides on top) and
+outcome. Writes ``figures/grasp_contacts.csv``, which the report reads:
 
     python studies/method/grasp_contacts.py
 """
@@ -58,6 +59,7 @@ def row(run: Path) -> dict | None:
     thumb = np.array([n.startswith(THUMB) for n in names])
     index = np.array([n.startswith(INDEX) for n in names])
     alone = c[:, index].any(axis=1) & ~c[:, ~index].any(axis=1)
+    touched = np.flatnonzero(contacts.any(axis=1))
     return {
         "record": str(run.relative_to(HERE)),
         "task": record["task"],
@@ -66,6 +68,7 @@ def row(run: Path) -> dict | None:
         "thumb": float(c[:, thumb].any(axis=1).mean()),
         "index_alone": float(alone.mean()),
         "any": float(c.any(axis=1).mean()),
+        "first_touch": float(t[touched[0]] - start) if len(touched) else float("nan"),
         "lifted": bool(record.get("milestone_lifted")),
         "completed": bool(record.get("completed")),
         "finished_cleanly": bool(record.get("finished_cleanly")),

@@ -2692,12 +2692,17 @@ GRASP_CONTACTS = "grasp_contacts.csv"
 ALONE = 0.5
 
 
+OPTION_COLUMNS = ("task", "option", "trials", "lifted", "thumb", "index alone", "index mostly alone",
+                  "first touch")  # fmt: skip
+
+
 def grasp_contacts(rows: pd.DataFrame) -> str:
     """Which links are on the object while the grasp is won (:data:`GRASP_CONTACTS`' rows: ``task``,
-    ``option``, ``thumb``, ``index_alone``, ``any`` (shares of the window's samples), ``lifted``,
-    ``grasp``; ``studies/method/grasp_contacts.py``): per task, the mean shares of the trials that lifted the
-    object and of those that did not; the trials with the index mostly alone on it, and how many of them
-    lifted it (Barnard's test against the others); per option with at least 5 trials of a task, the same."""
+    ``option``, ``thumb``, ``index_alone``, ``any`` (shares of the window's samples), ``first_touch`` (s
+    after the first expected contact; optional), ``lifted``, ``grasp``; ``studies/method/grasp_contacts.py``):
+    per task, the mean shares of the trials that lifted the object and of those that did not; the trials
+    with the index mostly alone on it, and how many of them lifted it (Barnard's test against the others);
+    per option with at least 5 trials of a task, the same and the median first touch."""
     if not len(rows):
         return ""
     window = float(rows["grasp"].iloc[0])
@@ -2731,24 +2736,24 @@ def grasp_contacts(rows: pd.DataFrame) -> str:
                 f"(Barnard p = {Fmt.p(p)})."
             )
     per_option = []
+    touch = rows["first_touch"] if "first_touch" in rows else pd.Series(np.nan, index=rows.index)
     for (task, name), g in rows.groupby(["task", "option"], sort=True):
         if len(g) >= 5:
+            first = touch[g.index].dropna()
             per_option.append(
                 f"| {task.removeprefix('paper_')} | `{name}` | {len(g)} "
                 f"| {of(int(g['lifted'].sum()), len(g))} | {g['thumb'].mean():.2f} "
-                f"| {g['index_alone'].mean():.2f} | {int((g['index_alone'] > ALONE).sum())} |"
+                f"| {g['index_alone'].mean():.2f} | {int((g['index_alone'] > ALONE).sum())} "
+                f"| {f'{first.median():.2f} s' if len(first) else '—'} |"
             )
     text = "".join(out) + ("\n" + "\n".join(lines) + "\n" if lines else "")
     if per_option:
         text += (
             "\nPer option with at least 5 trials of a task (a lever's overrides after its method's name, "
-            "`+`): the trials, those that lifted the object, the mean shares, and the trials with the index "
-            "alone on it for more than half of the window.\n\n"
-            + pipe_table(
-                ["task", "option", "trials", "lifted", "thumb", "index alone", "index mostly alone"],
-                "llrrrrr",
-                per_option,
-            )
+            "`+`): the trials, those that lifted the object, the mean shares, the trials with the index "
+            "alone on it for more than half of the window, and when a link first touched it (the median, s "
+            "after the first expected contact; the series are logged once a plan).\n\n"
+            + pipe_table(OPTION_COLUMNS, "llrrrrrr", per_option)
         )
     return text
 
