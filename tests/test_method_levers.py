@@ -1272,11 +1272,49 @@ def test_reuse_alone_false_carries_the_runners_up_except_where_one_finger_is_alo
     problem.engine.close()
 
 
+def test_reuse_until_carries_the_runners_up_before_then_whatever_the_fingers(monkeypatch):
+    """planner.reuse_until with reuse_fingers: a plan before first contact + reuse_until takes the runners-up
+    in with no finger on the object; from then on a plan with fewer fingers than reuse_fingers is reuse=0's
+    bit for bit."""
+    from types import SimpleNamespace
+
+    def pair(until):
+        problem = PointMassProblem(sigma=0.4)
+        on = PredictiveSampling(num_samples=12, horizon=0.5, reuse=3, reuse_fingers=2, reuse_until=until)
+        off = PredictiveSampling(num_samples=12, horizon=0.5)
+        problem.bind(on)
+        problem.bind(off)
+        on.problem.first_contact = off.problem.first_contact = 0.3
+        on.problem.scene = SimpleNamespace(
+            **vars(on.problem.scene),
+            hand=SimpleNamespace(link_names=["palm", "ff_tip"]),
+            link_contacts=lambda d: [False] * 2,
+        )
+        monkeypatch.setattr(on, "_forwarded", lambda state: None)
+        return problem, on, off, _evaluated(on), _evaluated(off)
+
+    problem, on, off, seen_on, seen_off = pair(-0.1)  # the gate shuts at 0.3 - 0.1 = 0.2
+    for k, t in enumerate((0.0, 0.2, 0.25)):  # runners-up kept, but none carried: reuse=0 bit for bit
+        on.plan(t, problem.state, np.random.default_rng(k))
+        off.plan(t, problem.state, np.random.default_rng(k))
+        np.testing.assert_array_equal(seen_on[k][0], seen_off[k][0])
+        np.testing.assert_array_equal(on.theta, off.theta)
+    problem.engine.close()
+    problem, on, off, seen_on, seen_off = pair(-0.1)
+    for k, t in enumerate((0.0, 0.1)):  # before it: carried with no finger on the object
+        on.plan(t, problem.state, np.random.default_rng(k))
+        off.plan(t, problem.state, np.random.default_rng(k))
+    np.testing.assert_array_equal(seen_on[1][0][:-3], seen_off[1][0][:-3])
+    assert not np.array_equal(seen_on[1][0][-3:], seen_off[1][0][-3:])
+    problem.engine.close()
+
+
 def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
     """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit;
     reuse=elites_after_grasp composes (8, from 2 s after the first expected contact), and
-    reuse=elites_grasped (8, while two fingers touch the object) and reuse=elites_unless_alone (8, except
-    while one finger is alone on it) run."""
+    reuse=elites_grasped (8, while two fingers touch the object), reuse=elites_unless_alone (8, except
+    while one finger is alone on it) and reuse=elites_early_grasped (8, until 1 s before the first
+    expected contact, then while two fingers touch it) run."""
     overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
@@ -1290,3 +1328,5 @@ def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, lat
     assert grasped["status"] == "ok" and grasped["config"]["planner"]["reuse_fingers"] == 2
     alone = json.loads(run_job(overrides + ["reuse=elites_unless_alone"], tmp_path / "alone").read_text())
     assert alone["status"] == "ok" and alone["config"]["planner"]["reuse_alone"] is False
+    early = json.loads(run_job(overrides + ["reuse=elites_early_grasped"], tmp_path / "early").read_text())
+    assert early["status"] == "ok" and early["config"]["planner"]["reuse_until"] == -1.0
