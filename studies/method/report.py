@@ -2696,7 +2696,36 @@ OPTION_COLUMNS = ("task", "option", "trials", "lifted", "thumb", "index alone", 
                   "first touch")  # fmt: skip
 
 
-def grasp_contacts(rows: pd.DataFrame) -> str:
+def grasp_figure(path: Path, rows: pd.DataFrame) -> None:
+    """Per task, each trial's first touch (s after the first expected contact) against the share of the
+    grasp window with the index alone on the object (each jittered a little: both lie on the plans'
+    grid); filled where the trial lifted the object, a cross where it did not; reuse's options (a
+    ``reuse=`` in the option) in colour."""
+    import matplotlib.pyplot as plt
+
+    tasks = ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER])
+    fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.6), squeeze=False, sharey=True)
+    reuse = rows["option"].astype(str).str.contains("reuse=")
+    for ax, task in zip(axes[0], tasks, strict=True):
+        mine = rows["task"] == task
+        for kind, color in ((~reuse, "0.55"), (reuse, "C3")):
+            for lifted, marker in ((True, "o"), (False, "x")):
+                g = rows[mine & kind & (rows["lifted"] == lifted)]
+                jitter = np.random.default_rng(0).uniform(-1, 1, (2, len(g))) * [[0.03], [0.015]]
+                label = f"{'reuse' if color == 'C3' else 'other'}, {'lifted' if lifted else 'not lifted'}"
+                x, y = g["first_touch"] + jitter[0], g["index_alone"] + jitter[1]
+                ax.scatter(x, y, s=14, marker=marker, color=color, alpha=0.7, label=label)
+        ax.axhline(ALONE, color="k", lw=0.6, ls=":")
+        ax.set_title(task.removeprefix("paper_"))
+        ax.set_xlabel("first touch, s after the first expected contact")
+    axes[0][0].set_ylabel("share of the grasp window with the index alone")
+    axes[0][-1].legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def grasp_contacts(rows: pd.DataFrame, study=None) -> str:
     """Which links are on the object while the grasp is won (:data:`GRASP_CONTACTS`' rows: ``task``,
     ``option``, ``thumb``, ``index_alone``, ``any`` (shares of the window's samples), ``first_touch`` (s
     after the first expected contact; optional), ``lifted``, ``grasp``; ``studies/method/grasp_contacts.py``):
@@ -2754,6 +2783,16 @@ def grasp_contacts(rows: pd.DataFrame) -> str:
             "alone on it for more than half of the window, and when a link first touched it (the median, s "
             "after the first expected contact; the series are logged once a plan).\n\n"
             + pipe_table(OPTION_COLUMNS, "llrrrrrr", per_option)
+        )
+    if study is not None and "first_touch" in rows:
+        link = study.draw(
+            "grasp_contacts.png",
+            lambda path: grasp_figure(path, rows),
+            "per trial, the first touch against the share of the grasp window with the index alone",
+        )
+        text += (
+            "\nEach trial's first touch against its share of the window with the index alone (filled: "
+            "lifted; a cross: not; red: an option with `reuse=`):\n\n" + link + "\n"
         )
     return text
 
@@ -3721,7 +3760,7 @@ def report(study) -> str:
         + from_figures(
             study,
             GRASP_CONTACTS,
-            grasp_contacts,
+            lambda rows: grasp_contacts(rows, study),
             "Not measured yet (`python studies/method/grasp_contacts.py`).\n",
         )
         + "\n## When the hand first touches the object\n\n"
