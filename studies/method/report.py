@@ -976,9 +976,9 @@ def target_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
         f"to meet it {100 * TARGET_ODDS:.0f} % of the time, a method must complete about "
         f"{100 * need_done:.0f} % of its trials (≥ {TARGET_COMPLETED} of {TARGET_SEEDS}) and finish about "
         f"{100 * need_clean:.0f} % cleanly (≥ {TARGET_CLEAN} of {TARGET_SEEDS}), each read alone (binomial). "
-        "The last column is the chance that ten new seeds meet both, from these counts (the posterior "
-        "predictive of clean, completed but not clean and not completed, under a uniform prior on their "
-        "rates):\n\n" + pipe_table(cols, "llrrr", rows)
+        f"The last column is the chance that {TARGET_SEEDS} new seeds meet both, from these counts (the "
+        "posterior predictive of clean, completed but not clean and not completed, under a uniform prior on "
+        "their rates):\n\n" + pipe_table(cols, "llrrr", rows)
     )
 
 
@@ -1230,7 +1230,8 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
             p, _ = completion_test(hc, len(h), cc, len(c)) if len(c) else (math.nan, math.nan)
             one = len(c) and cost_processor(h) == cost_processor(c)  # seconds of one processor alone
             ratio = h["cpu_seconds"].median() / c["cpu_seconds"].median() if one else math.nan
-            with_lever, without = (set(x.loc[x["finished_cleanly"], "seed"]) for x in (h, c))
+            both = set(c["seed"])  # a seed the method has no trial on is in neither list
+            with_lever, without = (set(x.loc[x["finished_cleanly"], "seed"]) & both for x in (h, c))
             only, lost = sorted(with_lever - without), sorted(without - with_lever)
             mm = [f"{median(x[col], scale=1e3)}" for col in ("_span", "_final") for x in (h, c)]
             errors = f"{mm[0]} / {mm[1]} | {mm[2]} / {mm[3]}"
@@ -3452,8 +3453,9 @@ def findings(df: pd.DataFrame) -> str:
     head = (
         f"For `{METHOD}`, of the {len(tasks)} tasks, the target is met on {len(met)} "
         f"({', '.join(met) or 'none'}), missed on {len(missed)} ({', '.join(missed) or 'none'}) and open on "
-        f"{len(tasks) - len(met) - len(missed)}. Each is one draw of ten seeds: *On seeds it was not chosen "
-        "on* reads the target as the chance that ten new seeds meet it, from every seed the method has."
+        f"{len(tasks) - len(met) - len(missed)}. Each is one draw of {TARGET_SEEDS} seeds: *On seeds it was "
+        f"not chosen on* reads the target as the chance that {TARGET_SEEDS} new seeds meet it, from every "
+        "seed the method has."
     )
     others_met = []
     for task in tasks:

@@ -220,10 +220,10 @@ class Planner:
             ``<finger>_*``, touching the object in the planning model at the plan's state), so a plan
             with one finger alone on the object (the stapler's index, pushing it before the thumb comes)
             draws every sample fresh; 0 (the default): into every plan.
-        reuse_until: with ``reuse_fingers``, carry the runners-up into every plan before this many seconds
-            after the reference's first expected contact (negative: before it) whatever the fingers on
-            the object, so the approach keeps them until then and the last of it draws fresh (not the
-            paper's); ``None`` (the default): the fingers alone decide.
+        reuse_until: with a fingers' gate (``reuse_fingers``, ``reuse_alone``), carry the runners-up into
+            every plan before this many seconds after the reference's first expected contact (negative:
+            before it) whatever the fingers on the object, so the approach keeps them until then and the
+            last of it draws fresh (not the paper's); ``None`` (the default): the fingers alone decide.
         reuse_alone: with ``reuse``, carry the runners-up also into the plans whose state has exactly one
             finger on the object (as counted for ``reuse_fingers``). False (not the paper's): such a plan
             draws every sample fresh, while a plan with no finger on the object (the approach) or with two
@@ -381,7 +381,7 @@ class Planner:
         self.reuse_fingers = int(reuse_fingers)
         self.reuse_alone = bool(reuse_alone)
         self.reuse_until = None if reuse_until is None else float(reuse_until)
-        self._reuse_gate = True  # (reuse_fingers) whether this plan's state has the fingers it asks for
+        self._reuse_gate = True  # (reuse_fingers, reuse_alone, reuse_until) whether this plan carries them in
         # (reuse) the last plan's runners-up: its window and their differences from what it committed
         self._kept: tuple[np.ndarray, np.ndarray] | None = None
 
