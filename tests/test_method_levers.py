@@ -1209,24 +1209,30 @@ def test_reuse_after_carries_the_runners_up_only_from_then_on():
     problem.engine.close()
 
 
+def fake_touch(planner, monkeypatch, names, touching) -> None:
+    """Give ``planner``'s scene the hand links ``names`` and make ``touching()`` (a list of booleans, one per
+    link) the links on the object in any state: a stand-in for contact on the point-mass problem."""
+    from types import SimpleNamespace
+
+    planner.problem.scene = SimpleNamespace(
+        **vars(planner.problem.scene),
+        hand=SimpleNamespace(link_names=names),
+        link_contacts=lambda data: np.asarray(touching()),
+    )
+    monkeypatch.setattr(planner, "_forwarded", lambda state: None)
+
+
 def test_reuse_fingers_carries_the_runners_up_only_where_enough_fingers_touch(monkeypatch):
     """planner.reuse_fingers: a plan whose state has fewer fingers on the object (the distinct
     ``<finger>_*`` of the touching links; the palm is none) is reuse=0's bit for bit; one with enough takes
     the last plan's runners-up in."""
-    from types import SimpleNamespace
-
     problem = PointMassProblem(sigma=0.4)
     on = PredictiveSampling(num_samples=12, horizon=0.5, reuse=3, reuse_fingers=2)
     off = PredictiveSampling(num_samples=12, horizon=0.5)
     problem.bind(on)
     problem.bind(off)
-    names = ["palm", "ff_tip", "ff_distal", "th_tip"]
     touching = {"now": np.array([True, True, True, False])}  # the palm and two links of one finger
-    scene = on.problem.scene
-    on.problem.scene = SimpleNamespace(
-        **vars(scene), hand=SimpleNamespace(link_names=names), link_contacts=lambda data: touching["now"]
-    )
-    monkeypatch.setattr(on, "_forwarded", lambda state: None)
+    fake_touch(on, monkeypatch, ["palm", "ff_tip", "ff_distal", "th_tip"], lambda: touching["now"])
     assert on.fingers_touching(problem.state) == 1
     seen_on, seen_off = _evaluated(on), _evaluated(off)
     for k in range(2):  # the second plan has runners-up kept, but one finger: fresh samples alone
@@ -1245,20 +1251,13 @@ def test_reuse_fingers_carries_the_runners_up_only_where_enough_fingers_touch(mo
 def test_reuse_alone_false_carries_the_runners_up_except_where_one_finger_is_alone(monkeypatch):
     """planner.reuse_alone=False: a plan whose state has exactly one finger on the object is reuse=0's bit
     for bit; one with none (the approach) or with two takes the last plan's runners-up in."""
-    from types import SimpleNamespace
-
     problem = PointMassProblem(sigma=0.4)
     on = PredictiveSampling(num_samples=12, horizon=0.5, reuse=3, reuse_alone=False)
     off = PredictiveSampling(num_samples=12, horizon=0.5)
     problem.bind(on)
     problem.bind(off)
-    names = ["palm", "ff_tip", "ff_distal", "th_tip"]
     touching = {"now": np.array([False, False, False, False])}
-    scene = on.problem.scene
-    on.problem.scene = SimpleNamespace(
-        **vars(scene), hand=SimpleNamespace(link_names=names), link_contacts=lambda data: touching["now"]
-    )
-    monkeypatch.setattr(on, "_forwarded", lambda state: None)
+    fake_touch(on, monkeypatch, ["palm", "ff_tip", "ff_distal", "th_tip"], lambda: touching["now"])
     seen_on, seen_off = _evaluated(on), _evaluated(off)
     for k, now in enumerate(
         ([False] * 4, [False] * 4, [True, True, True, False], [False, True, False, True])
@@ -1276,7 +1275,6 @@ def test_reuse_until_carries_the_runners_up_before_then_whatever_the_fingers(mon
     """planner.reuse_until with reuse_fingers: a plan before first contact + reuse_until takes the runners-up
     in with no finger on the object; from then on a plan with fewer fingers than reuse_fingers is reuse=0's
     bit for bit."""
-    from types import SimpleNamespace
 
     def pair(until):
         problem = PointMassProblem(sigma=0.4)
@@ -1285,12 +1283,7 @@ def test_reuse_until_carries_the_runners_up_before_then_whatever_the_fingers(mon
         problem.bind(on)
         problem.bind(off)
         on.problem.first_contact = off.problem.first_contact = 0.3
-        on.problem.scene = SimpleNamespace(
-            **vars(on.problem.scene),
-            hand=SimpleNamespace(link_names=["palm", "ff_tip"]),
-            link_contacts=lambda d: [False] * 2,
-        )
-        monkeypatch.setattr(on, "_forwarded", lambda state: None)
+        fake_touch(on, monkeypatch, ["palm", "ff_tip"], lambda: [False] * 2)
         return problem, on, off, _evaluated(on), _evaluated(off)
 
     problem, on, off, seen_on, seen_off = pair(-0.1)  # the gate shuts at 0.3 - 0.1 = 0.2
