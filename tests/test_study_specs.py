@@ -809,8 +809,14 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
 
     chosen = trials(range(10), [True] * 5 + [False, True] + [False] * 3)
     lever = trials([4, 5, 6, 12, 13], [True, True, False, True, True], True)
-    held = trials([12, 13], [False, True])  # the method's own trials on held-out seeds
+    held = trials([12], [False])  # the method's own trial on a held-out seed
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: lever if folder == spec.LEVERS else held)
+
+    def stand_ins(study, df, own, method=spec.METHOD):  # a trial of the method's config on held-out seed 13
+        found = trials([13], [True]).assign(variant=method, stand_in="carry=held")
+        return found if method == spec.METHOD else found.iloc[0:0]
+
+    monkeypatch.setattr(spec, "stand_ins", stand_ins)
 
     class Drawn:
         def draw(self, name, make, alt, data=None):
@@ -820,7 +826,8 @@ def test_the_method_study_sets_each_lever_beside_the_method_on_the_same_seeds(mo
     text = spec.levers_section(Drawn(), chosen)
     assert "| `pacing=release place=wrist` | stapler | 4-6 | 3 of 3 | 2 of 3 | 3 of 3 | 2 of 3 |" in text
     assert "| 5 | 6 | 30 / 30 | 40 / 40 | 1.00 |" in text  # clean only with the lever: 5; only without: 6
-    # the lever's held-out seeds beside the method's held-out trials, on a row of their own
+    # the lever's held-out seeds beside the method's held-out trials (its stand-ins counted in), on a row of
+    # their own
     assert "| stapler (held out) | 12 and 13 | 2 of 2 | 2 of 2 | 2 of 2 | 1 of 2 |" in text
     assert "`place=wrist`: The wrist sampled while the object is set down" in text
     assert (tmp_path / "levers.png").stat().st_size > 0

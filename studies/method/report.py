@@ -1071,6 +1071,9 @@ LEVER_TEXT = {
     "the retraction and its repeats (`sampler.release.retract_margin`; the method's 0: the planning "
     "model's contacts only), so a link resting on the knob in the plant, just apart in the planning model, "
     "is moved off too",
+    "planner.pace_lag=0.05": "`pacing=release` waits for the object's place only beyond 5 cm "
+    "(`planner.pace_lag`; the group's 3 cm), the final tolerance, so it waits mostly for the object's "
+    "orientation (`planner.pace_angle`, 20°)",
     "planner.reuse=4": "4 of the last plan's runners-up carried into the next (`planner.reuse`; "
     "`reuse=elites`'s 8), so a plan of 32 samples draws 28 fresh",
     "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
@@ -1115,7 +1118,7 @@ def _lever_text(lever: str) -> str:
     for part in lever.split():
         key, member = part.split("=", 1)
         path = CONF / key / f"{member}.yaml"
-        text = _comment(path) if path.is_file() else LEVER_TEXT.get(part, "")
+        text = _comment(path) if path.is_file() else LEVER_TEXT.get(part, "no description kept (LEVER_TEXT)")
         out.append(f"`{part}`: " + text.rstrip("."))
     return "; ".join(out) + "."
 
@@ -1197,21 +1200,22 @@ def stacked(ok: pd.DataFrame) -> str:
 
 def levers_section(study, chosen: pd.DataFrame) -> str:
     """Each lever on top of a method (:data:`LEVERS`; the method they ran on, :func:`built_on`) against that
-    method's own trials on the same seeds, per task: the counts, Barnard's test on finishing cleanly, the
-    CPU-s ratio; a figure of the counts."""
+    method's trials on the same seeds (on the held-out ones with its stand-ins, :func:`heldout_frame`), per
+    task: the counts, Barnard's test on finishing cleanly, the CPU-s ratio; a figure of the counts."""
     ok = lever_frame(study)
     on = built_on(ok)
     head = (
         f"Options on top of `{on}` (the paper tasks' default when they ran) run as full trials on the "
         "sweep's seeds (stapler first, the task furthest from the target, then the bottle and the apple; "
         f"seeds vary fastest), kept in `{LEVERS}/` (`{LEVERS_RUN}`), each against `{on}`'s own trials on the "
-        f"same seeds (on seeds {HELDOUT_SEEDS}, its held-out trials: *On seeds it was not chosen on*); a "
+        f"same seeds (on seeds {HELDOUT_SEEDS}, its held-out trials, stand-ins counted in: *On seeds it was "
+        "not chosen on*); a "
         "lever run on top of another method (`lever` on `method`) against that method's trials.\n\n"
     )
     if not len(ok):
         return head + "No such trial is kept yet.\n"
-    held = frame(study, HELDOUT)  # the methods' own trials on the held-out seeds
-    every = pd.concat([counted(chosen), held[held["counted"]] if len(held) else held])
+    held = heldout_frame(study, chosen)[0]  # the methods' trials on the held-out seeds, stand-ins counted in
+    every = pd.concat([counted(chosen), held])
     rows, fig_rows = [], []
     # each override once, also where several levers combine it (carry=pose, carry=pose pacing=release)
     notes = [f"- {_lever_text(part)}" for part in sorted({p for lever in ok["lever"] for p in lever.split()})]
