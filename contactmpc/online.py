@@ -42,7 +42,7 @@ from tqdm.auto import tqdm
 
 from contactmpc.control.planners.base import PlanInfo
 from contactmpc.trial import Trial, TrialLog
-from contactmpc.validate import ConfigError, Ge, Gt, checked
+from contactmpc.validate import Ge, Gt, checked
 
 MIN_SLEEP = 1e-3
 """Wall seconds: the plant sleeps only when it is at least this far ahead of its schedule."""
@@ -67,6 +67,8 @@ class Published:
         state_time: control time of the plant state it was planned from (s).
         start_wall: ``time.perf_counter()`` when its iteration started.
         ready_wall: ``time.perf_counter()`` when it was published.
+        clock: a paced reference's clock as this plan set it (``planner.pace_lag``; ``None`` without), so
+            the plant reads the plan's targets at the reference times it was planned for.
     """
 
     version: int
@@ -75,6 +77,7 @@ class Published:
     state_time: float
     start_wall: float
     ready_wall: float
+    clock: tuple | None = None
 
 
 def _median_p95(values) -> tuple[float | None, float | None]:
@@ -124,11 +127,6 @@ class OnlineLoop:
         min_interval: Annotated[float, Ge(0)] = 0.0,
         apply_after: Annotated[float, Ge(0)] = 0.0,
     ) -> None:
-        if trial.planner.pace_lag is not None:
-            raise ConfigError(
-                "planner.pace_lag: a paced reference runs in simulated trials only, not in job=online "
-                "(pacing=none)"
-            )
         self.min_interval = float(min_interval)
         self.apply_after = float(apply_after)
         self.trial = trial
@@ -185,8 +183,9 @@ class OnlineLoop:
                 info = planner.plan(t, state, rng, ahead=ahead, reach=ahead)
                 theta = planner.theta.copy()
                 theta.flags.writeable = False
+                clock = None if planner.pace_lag is None else planner.clock
                 with self._lock:
-                    plan = Published(len(self.plans), theta, info, t, start, time.perf_counter())
+                    plan = Published(len(self.plans), theta, info, t, start, time.perf_counter(), clock)
                     self.plans.append(plan)
                     self._plan = plan  # the swap: one reference, read by the plant once per step
         except BaseException as err:  # noqa: BLE001  (handed to the plant thread, which raises it)
@@ -280,14 +279,15 @@ class OnlineLoop:
                     if published is not plan:
                         self.swaps.append((published.version, k))
                     plan, first = published, k
-                    targets = planner.targets((k + np.arange(per_state)) * dt, plan.theta)
+                    targets = planner.targets((k + np.arange(per_state)) * dt, plan.theta, plan.clock)
                 target = targets[k - first]
                 age = t - plan.state_time
                 self.step_version[k], self.step_age[k] = plan.version, age
                 if k % per_log == 0:
                     if k:
                         plant.check(t - per_log * dt, t)
-                    plant.log(self.log, t, target, plan.info)
+                    at = None if plan.clock is None else planner.reference_time(t, plan.clock)
+                    plant.log(self.log, t, target, plan.info, at)
                     self.log.append(
                         plan_version=plan.version, plan_age=age, wall_time=time.perf_counter() - wall0
                     )

@@ -935,16 +935,31 @@ def test_carry_held_composes_the_wrist_carry_with_a_hold(tmp_path, late_contact_
     assert planner["carry_turn"] == 0.0
 
 
-def test_a_paced_reference_is_refused_online(scene_for):
+def test_a_paced_reference_runs_online_each_plan_read_at_its_own_clock(scene_for):
+    """job=online with a paced reference: the reference waits for the object as in a trial (the log's
+    reference time falls behind control time, by no more than pace_budget), and the targets the plant used
+    are each the plan in use's, read at the clock that plan set (not the planner's, which moves on)."""
     from contactmpc.online import OnlineLoop
 
     scene = scene_for("apple")
-    planner = PredictiveSampling(num_samples=2, horizon=0.1, nthread=1, pace_lag=0.02)
-    ref = static_reference(scene, duration=0.2, frames=6)
+    planner = PredictiveSampling(num_samples=2, horizon=0.1, nthread=1, pace_lag=1e-9, pace_budget=0.1)
+    ref = static_reference(scene, duration=0.3, frames=7)  # contact expected throughout: it may wait
     trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
-    with pytest.raises(ConfigError, match="pace_lag.*not in job=online"):
-        OnlineLoop(trial)
-    planner.close()
+    loop = OnlineLoop(trial, slowdown=4.0)
+    try:
+        series = loop.run().arrays()
+    finally:
+        planner.close()
+    behind = series["time"] - series["reference_time"]
+    assert behind.max() > 0.02 and (behind <= 0.1 + 1e-6).all()
+    plans = loop.plans
+    assert all(p.clock is not None for p in plans) and len({p.clock for p in plans}) > 1
+    for t, version, target in zip(series["time"], series["plan_version"], series["hand_target"], strict=True):
+        plan = plans[version]
+        np.testing.assert_allclose(
+            target, planner.targets(np.array([t]), plan.theta, plan.clock)[0], atol=1e-12
+        )
+        assert planner.reference_time(t, plan.clock) == pytest.approx(t - behind[series["time"] == t][0])
 
 
 def test_trapezoids_ramp_in_and_out_of_each_run_and_bridge_short_gaps():

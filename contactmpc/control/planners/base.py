@@ -595,15 +595,19 @@ class Planner:
         """(H,) the times of the horizon starting at grid time ``t``: its grid steps."""
         return (self.problem.track.index(t) + np.arange(self.steps)) * self.dt
 
-    def targets(self, times: np.ndarray, theta: np.ndarray | None = None) -> np.ndarray:
+    def targets(
+        self, times: np.ndarray, theta: np.ndarray | None = None, clock: tuple | None = None
+    ) -> np.ndarray:
         """The committed policy: (N, J) joint targets at control ``times`` (N,), the spline read at the
         reference's times there (:meth:`reference_time`).
 
         ``theta`` (M, d): control points to evaluate instead of the committed ones (the wall-clock loop,
-        :mod:`contactmpc.online`, evaluates its published copy while the planner works on its own).
+        :mod:`contactmpc.online`, evaluates its published copy while the planner works on its own);
+        ``clock``: a paced reference's clock to read them at instead of the planner's own (:attr:`clock`:
+        the published plan's, while the planner's moves on with the next plan).
         """
         theta = self.theta if theta is None else theta
-        s = self.reference_time(times)
+        s = self.reference_time(times, clock)
         u = self.problem.space.controls(theta, self.problem.spline.basis(s))
         u = u if self._grip is None else self.gripped(u, self.grip_at(s))
         if self._retract is not None:  # the hand lets go by the retraction from its start on
@@ -672,12 +676,20 @@ class Planner:
         ranges = self.problem.space.ranges
         return np.clip(u + offset, ranges[:, 0], ranges[:, 1])
 
-    def reference_time(self, t):
+    @property
+    def clock(self) -> tuple[float, float, float, float]:
+        """A paced reference's clock as the plans so far have set it (``pace_lag``): ``(t0, s0, rate, t1)``,
+        the reference at ``s0`` at control time ``t0``, running at ``rate`` until ``t1``, then with control
+        time (an immutable tuple: a copy to evaluate targets with later, :meth:`targets`)."""
+        return self._clock
+
+    def reference_time(self, t, clock: tuple | None = None):
         """The reference's time at control time ``t`` (a float or an array): ``t`` itself unless the
-        reference is paced (``pace_lag``), else its clock's as the plans so far have set it."""
+        reference is paced (``pace_lag``), else its clock's as the plans so far have set it (or as
+        ``clock``, a copy of :attr:`clock` taken earlier, has it)."""
         if self.pace_lag is None:
             return t
-        t0, s0, rate, t1 = self._clock
+        t0, s0, rate, t1 = self._clock if clock is None else clock
         t = np.asarray(t, float)
         s = s0 + rate * (np.minimum(t, t1) - t0) + np.maximum(t - t1, 0.0)
         return float(s) if s.ndim == 0 else s
