@@ -667,8 +667,8 @@ def test_a_paced_release_waits_only_in_its_window_for_the_object_placed_and_upri
 def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_path, late_contact_reference):
     """pacing=hold on a reference whose object rises while the tiny planner cannot lift it: the reference's
     clock falls behind only after the first expected contact, by at most the budget, the trial runs the
-    budget longer, and the log reads the reference at the reference's time. With no budget it never waits:
-    the trial of pacing=none, bit for bit."""
+    budget longer, and the log reads the reference at the reference's time; planner.pace_turn runs with it.
+    With no budget it never waits: the trial of pacing=none, bit for bit."""
     overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     paced = run_job(
@@ -689,6 +689,9 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
     np.testing.assert_array_equal(
         series["expected_object_qpos"][held], series["expected_object_qpos"][held + 1]
     )
+    turn = ["pacing=hold", "planner.pace_lag=0.01", "planner.pace_budget=0.3", "planner.pace_turn=1.0"]
+    turned = json.loads(run_job(overrides + turn, tmp_path / "turn").read_text())  # (turns while it waits)
+    assert turned["status"] == "ok" and turned["config"]["planner"]["pace_turn"] == 1.0
     never = run_job(overrides + ["pacing=hold", "planner.pace_budget=0"], tmp_path / "never")
     a, b = np.load(base.parent / "timeseries.npz"), np.load(never.parent / "timeseries.npz")
     assert set(b.files) - set(a.files) == {"reference_time"}
@@ -918,6 +921,66 @@ def test_carry_turns_the_wrist_toward_the_references_orientation_and_keeps_the_o
     swing = np.cross(omega, qo[:3] - d.xpos[scene.index.root_body])
     np.testing.assert_allclose(step[:3], -swing, atol=1e-9)  # (the object's position is the reference's)
     planner.close()
+
+
+def test_pace_turn_turns_a_set_down_object_toward_the_references_orientation_while_the_reference_waits(
+    scene_for,
+):
+    """planner.pace_turn: a plan that finds the paced reference's clock held and the object set down (not
+    carried) turns the wrist by gain x dt x the rotation from the object's orientation to the reference's
+    (the carry's turn, the object kept in place); nothing while the reference runs on, nor with pace_turn 0;
+    refused without pace_lag."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)  # contact expected throughout, the object still
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    m = scene.planner_model
+    d = mujoco.MjData(m)
+    d.qpos[scene.index.hand_qpos] = scene.task.hand_home
+    qo = problem.track.object_qpos[problem.track.index(0.6)].copy()  # on the table, where it starts
+    tipped = np.zeros(4)
+    mujoco.mju_mulQuat(tipped, np.array([np.cos(0.25), np.sin(0.25), 0.0, 0.0]), qo[3:7].copy())  # 0.5 rad
+    qo[3:7] = tipped
+    d.qpos[scene.index.object_qpos] = qo
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_comPos(m, d)
+    jacr = np.zeros((3, m.nv))
+    mujoco.mj_jacBody(m, d, None, jacr, scene.index.root_body)
+
+    def planner_at(turn):
+        planner = PredictiveSampling(
+            num_samples=2,
+            horizon=0.2,
+            nthread=1,
+            carry_gain=1.0,
+            pace_lag=0.05,
+            pace_angle=0.35,
+            pace_turn=turn,
+        )
+        planner.bind(problem)
+        planner.carry(0.5, 0.5, state)  # the plan before (dt = 0.1 s from it)
+        return planner
+
+    planner = planner_at(1.0)
+    assert not planner.waiting(0.6)
+    np.testing.assert_array_equal(planner.carry(0.6, 0.6, state), np.zeros(6))  # the reference runs on
+    planner.pace(0.7, 0.7, state)  # turned 0.5 rad > pace_angle: the clock holds from 0.7 on
+    assert planner.waiting(0.7) and planner.waiting(0.8)
+    step = planner.carry(0.7, 0.7, state)
+    omega = jacr[:, scene.index.hand_dof[3:6]] @ step[3:]
+    np.testing.assert_allclose(omega, [-0.5 * 0.1, 0.0, 0.0], atol=1e-6)  # back upright: 0.1 s x 0.5 rad
+    swing = np.cross(omega, qo[:3] - d.xpos[scene.index.root_body])
+    np.testing.assert_allclose(step[:3], -swing, atol=1e-9)  # the object kept where it is
+    planner.close()
+    planner = planner_at(0.0)
+    planner.pace(0.7, 0.7, state)
+    np.testing.assert_array_equal(planner.carry(0.7, 0.7, state), np.zeros(6))
+    planner.close()
+    with pytest.raises(ConfigError, match="pace_turn.*pace_lag"):
+        PredictiveSampling(pace_turn=1.0)
 
 
 def test_a_carried_trial_runs_and_says_so(tmp_path, late_contact_reference):

@@ -178,6 +178,11 @@ class Planner:
             Jacobian at the measured state), and its translation moves the object back where the turn
             about the wrist would swing it; at most ``carry_turn_limit`` (rad) in all.
         carry_turn_limit: the most the wrist's hinges are turned in all (rad, the norm of the turn).
+        pace_turn: turn the object upright while a paced reference waits (not the paper's; 1/s; needs
+            ``pace_lag``): at each plan that finds the reference's clock held and the object not carried
+            (set down), the wrist turns as ``carry_turn`` has it, at this gain, toward the orientation the
+            reference has the object in there, the object kept where it is; in the same total as the
+            carry's turn (``carry_turn_limit``). 0: the wait only holds the hand still.
         carry_hold: control time (s) the object must have been carried (both above ``carry_lift``, without
             a break) before the carry shifts the wrist: the grasp has held, so the feedback does not pull
             on an object the hand is still lifting. 0: from the first plan it is carried.
@@ -265,6 +270,7 @@ class Planner:
         carry_turn: Annotated[float, Ge(0)] = 0.0,
         carry_turn_limit: Annotated[float, Ge(0)] = 0.5,
         carry_hold: Annotated[float, Ge(0)] = 0.0,
+        pace_turn: Annotated[float, Ge(0)] = 0.0,
         grip: Grip | None = None,
         switch_timestep: Annotated[float, Gt(0)] | None = None,
         switch_after: float | None = 2.0,
@@ -311,6 +317,11 @@ class Planner:
         self.carry_turn = float(carry_turn)
         self.carry_turn_limit = float(carry_turn_limit)
         self.carry_hold = float(carry_hold)
+        if pace_turn and pace_lag is None:
+            raise ConfigError(
+                "planner.pace_turn turns the object while a paced reference waits: set planner.pace_lag"
+            )
+        self.pace_turn = float(pace_turn)
         self._carry_since: float | None = None  # control time the object has been carried since (carry_hold)
         self._carry = np.zeros(6)  # the wrist's shift so far (carry_gain): translation, hinge angles
         self._carry_data = None  # (carry_turn) scratch data for the wrist's Jacobian
@@ -694,6 +705,13 @@ class Planner:
         s = s0 + rate * (np.minimum(t, t1) - t0) + np.maximum(t - t1, 0.0)
         return float(s) if s.ndim == 0 else s
 
+    def waiting(self, t: float) -> bool:
+        """Whether a paced reference's clock is held (runs slower than control time) at control time ``t``."""
+        if self.pace_lag is None:
+            return False
+        t0, _, rate, t1 = self._clock
+        return rate < 1.0 and t0 - 1e-9 <= t < t1 - 1e-9
+
     def pace(self, t: float, s: float, state: np.ndarray) -> None:
         """Set the reference's clock from control time ``t`` on (where a plan takes effect), for the plan
         made from ``state`` at reference time ``s``: it waits (runs at ``pace_rate``) while the reference
@@ -865,7 +883,7 @@ class Planner:
                 self.retract(takes_effect if ahead and self.compensate_latency else t, state)
         elif self._retract is not None and self.problem.space.release.retract_again:
             self.retract(takes_effect if ahead and self.compensate_latency else t, state, again=True)
-        if self.carry_gain:
+        if self.carry_gain or self.pace_turn:
             self.carry(t, s, state)
         if self.grip is not None and self.grip.during == "touched":
             self.touch(s, state)
@@ -1069,7 +1087,7 @@ class Planner:
         reset = spline.window_indices(at, max(0.0, spline.domain[1] - at))
         cols = slice(0, self.problem.scene.hand.num_root if wrist_only else None)
         target = self.problem.release_theta[reset, cols].copy()
-        if self.carry_gain:  # the wrist keeps the shift that carried the object
+        if self.carry_gain or self.pace_turn:  # the wrist keeps the shift that carried (or turned) the object
             target[:, :6] += self._carry
         blend = self.problem.space.release.blend
         if blend > 0.0:  # from the committed points toward the nominal, by each point's Greville abscissa
@@ -1085,7 +1103,8 @@ class Planner:
     def carry(self, t: float, s: float, state: np.ndarray) -> np.ndarray:
         """Shift the wrist's committed translation by the object's slip (``carry_gain``; with
         ``carry_turn`` also its hinges by the object's turn), for the plan made at control time ``t``
-        (reference time ``s``) from ``state``.
+        (reference time ``s``) from ``state``; with ``pace_turn``, turn its hinges by a set-down object's
+        turn while a paced reference waits (:meth:`waiting`).
 
         Returns:
             (6,) the shift this plan made (translation, hinge angles; zeros where the object is not
@@ -1105,15 +1124,19 @@ class Planner:
         start = track.object_qpos[0, c + 2]
         if min(qo[c + 2], expected[c + 2]) - start <= self.carry_lift:
             self._carry_since = None
-            return step
-        if self._carry_since is None:
-            self._carry_since = t
-        if t - self._carry_since < self.carry_hold - 1e-9:
-            return step
-        self._held = True
-        step[:3] = self.carry_gain * dt * (expected[c : c + 3] - qo[c : c + 3])
-        if self.carry_turn:
-            step += self._turn(state, qo[c : c + 7], expected[c + 3 : c + 7], self.carry_turn * dt)
+            if not (self.pace_turn and self.waiting(t)):
+                return step
+            # (pace_turn) set down while the reference waits: turned toward where the reference sets it down
+            step = self._turn(state, qo[c : c + 7], expected[c + 3 : c + 7], self.pace_turn * dt)
+        else:
+            if self._carry_since is None:
+                self._carry_since = t
+            if not self.carry_gain or t - self._carry_since < self.carry_hold - 1e-9:
+                return step
+            self._held = True
+            step[:3] = self.carry_gain * dt * (expected[c : c + 3] - qo[c : c + 3])
+            if self.carry_turn:
+                step += self._turn(state, qo[c : c + 7], expected[c + 3 : c + 7], self.carry_turn * dt)
         total = self._carry + step
         for part, limit in ((slice(0, 3), self.carry_limit), (slice(3, 6), self.carry_turn_limit)):
             norm = float(np.linalg.norm(total[part]))
