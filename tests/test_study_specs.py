@@ -1497,3 +1497,30 @@ def test_the_latency_s_demand_on_the_machine_is_read_from_the_records_and_the_be
     assert "1 of 2 completed at 300 ms (its grasp plans need 5.0 threads)" in text
     assert "1.50 CPU-s" in text
     assert spec.threads_needed(study, records[2:], ok, 170.0) == ""  # a held-out seed only
+
+
+def test_the_method_study_reads_a_paced_trials_wait_and_the_tilt_over_it(tmp_path) -> None:
+    """paced_waits: how long the reference fell behind in all, and the object's tilt off the reference's
+    where the wait began and where it ended; NaN tilts where it never waited; None without a logged
+    reference time."""
+    import numpy as np
+
+    spec = Study("method").spec
+    t = np.arange(8) * 0.5
+    behind = np.array([0.0, 0.0, 0.5, 1.0, 1.5, 1.5, 1.5, 1.5])  # held from 0.5 s to 2.0 s
+    tilt = np.radians([0.0, 0.0, 30.0, 20.0, 10.0, 5.0, 5.0, 5.0])
+    upright = np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (8, 1))
+    tipped = upright.copy()
+    tipped[:, 3], tipped[:, 4] = np.cos(tilt / 2), np.sin(tilt / 2)  # about x: tilted by `tilt`
+    run = tmp_path / "run"
+    run.mkdir()
+    np.savez(run / "timeseries.npz", time=t, reference_time=t - behind, object_qpos=tipped,
+             expected_object_qpos=upright)  # fmt: skip
+    waited, began, ended = spec.paced_waits(run / "trial.json")
+    assert waited == 1.5 and began == pytest.approx(0.0) and ended == pytest.approx(10.0)
+    np.savez(run / "timeseries.npz", time=t, reference_time=t, object_qpos=tipped,
+             expected_object_qpos=upright)  # fmt: skip
+    waited, began, ended = spec.paced_waits(run / "trial.json")
+    assert waited == 0.0 and np.isnan(began) and np.isnan(ended)
+    np.savez(run / "timeseries.npz", time=t, object_qpos=tipped, expected_object_qpos=upright)
+    assert spec.paced_waits(run / "trial.json") is None

@@ -1768,6 +1768,90 @@ def set_down_tilt(done: pd.DataFrame) -> str:
     )
 
 
+def paced_waits(record_path) -> tuple[float, float, float] | None:
+    """A paced trial's wait, from its ``timeseries.npz``: ``(seconds the reference fell behind in all, the
+    object's tilt off the reference's where it began to wait, where it stopped)`` (degrees,
+    :func:`~contactmpc.tasks.layout.tilt_angle`); NaN tilts where it never waited; ``None`` without a series
+    that logs the reference's time or a single free body."""
+    from contactmpc.tasks.layout import tilt_angle
+
+    series = Path(record_path).parent / "timeseries.npz"
+    if not series.is_file():
+        return None
+    z = np.load(series)
+    if "reference_time" not in z.files or z["object_qpos"].shape[-1] != 7:
+        return None
+    behind = z["time"] - z["reference_time"]
+    waiting = np.flatnonzero(np.diff(behind) > 1e-9)  # rows after which the reference fell further behind
+    if not len(waiting):
+        return 0.0, math.nan, math.nan
+    angle = np.degrees(tilt_angle(z["object_qpos"][:, 3:7], z["expected_object_qpos"][:, 3:7]))
+    return float(behind.max()), float(angle[waiting[0]]), float(angle[waiting[-1] + 1])
+
+
+def paced_release(study, chosen: pd.DataFrame) -> str:
+    """The levers that pace the release (``pacing=release*``) trial by trial: how long the reference waited,
+    the object's tilt where the wait began and where it ended, at the trial's end, and how the trial and
+    the method's on that seed (stand-ins counted in) ended."""
+    ok = lever_frame(study)
+    if not len(ok):
+        return ""
+    ok = ok[[any(p.startswith("pacing=release") for p in lever.split()) for lever in ok["lever"]]]
+    if not len(ok):
+        return ""
+    every = pd.concat([counted(chosen), heldout_frame(study, chosen)[0]])
+    bases = {lever: built_on(g) for lever, g in ok.groupby("lever")}  # the method each lever is on
+    clean = {
+        (r["variant"], r["task"], r["seed"]): bool(r["finished_cleanly"]) for r in every.to_dict("records")
+    }
+
+    def ended(completed, finished):
+        return "clean" if finished else "completed" if completed else "not completed"
+
+    rows, per = [], {}
+    for r in ok.sort_values(["lever", "task", "seed"]).to_dict("records"):
+        waits = paced_waits(r["record_path"])
+        if waits is None:
+            continue
+        waited, began, stopped = waits
+        end = tilts(r["record_path"], r.get("contact_span_end"))[1]
+        base = clean.get((bases[r["lever"]], r["task"], r["seed"]))
+        deg = [("—" if math.isnan(x) else f"{x:.0f}") for x in (began, stopped, end)]
+        name = r["lever"] if bases[r["lever"]] == METHOD else f"{r['lever']}` on `{bases[r['lever']]}"
+        rows.append(
+            f"| `{name}` | {r['task']} | {r['seed']} | {waited:.1f} | {deg[0]} | {deg[1]} | {deg[2]} "
+            f"| {ended(r['completed'], r['finished_cleanly'])} "
+            f"| {'—' if base is None else 'clean' if base else 'not clean'} |"
+        )
+        if waited > 0:
+            got = per.setdefault(r["lever"], [[], 0, 0, 0])
+            got[0].append(began - stopped)
+            got[1] += bool(r["finished_cleanly"])
+            got[2] += bool(base)
+            got[3] += base is not None
+    if not rows:
+        return ""
+    said = [
+        f"`{lever}`: it waited on {len(turn)} trials, the object righted by {np.median(turn):+.0f}° over the "
+        f"wait (median; negative: tipped further); {finished} of them finished cleanly, where the method it "
+        f"is on finished {base} of the {known} it has"
+        for lever, (turn, finished, base, known) in per.items()
+    ]
+    cols = ("lever", "task", "seed", "waited, s", "tilt where the wait began, °", "where it ended, °",
+            "at the end, °", "the trial", "the method it is on, that seed")  # fmt: skip
+    return (
+        "\n### The release paced by the object\n\n"
+        "Each lever trial whose release waits for the object (`pacing=release*`), from its time series: how "
+        "long the reference's clock held (s), the object's tilt off the reference's (the spin about the "
+        "vertical left out) where the wait began and where it ended (where the hand let go), and at the "
+        "trial's end (— where it never waited, and the trial is the method's config in all that acts); "
+        "beside it how the method's trial on that seed ended (its stand-ins counted in). "
+        + "; ".join(said)
+        + ".\n\n"
+        + pipe_table(cols, "lllrrrrll", rows)
+    )
+
+
 def set_down_pairs(ok: pd.DataFrame, least: int = 5) -> list[str]:
     """Rows of :func:`set_down`'s paired table: each method of :data:`ORDER` built on :func:`free_base`
     against it, per free-object task with at least ``least`` seeds both completed: the orientation error
@@ -3785,6 +3869,7 @@ def report(study) -> str:
         + release_section(study)
         + "\n### Where the object is set down\n\n"
         + set_down(study)
+        + paced_release(study, df)
         + "\n## The doorknob on a slide with friction\n\n"
         + rough_slide(rough, df, study)
         + "\n## The doorknob's release, screened\n\n"
