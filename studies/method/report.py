@@ -1805,8 +1805,10 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
         (r["variant"], r["task"], r["seed"]): bool(r["finished_cleanly"]) for r in every.to_dict("records")
     }
 
-    def ended(completed, finished):
-        return "clean" if finished else "completed" if completed else "not completed"
+    def ended(r):
+        if r["status"] != "ok":
+            return str(r["status"])  # (diverged: counted, not completed)
+        return "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
 
     rows, per = [], {}
     for r in ok.sort_values(["lever", "task", "seed"]).to_dict("records"):
@@ -1820,7 +1822,7 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
         name = r["lever"] if bases[r["lever"]] == METHOD else f"{r['lever']}` on `{bases[r['lever']]}"
         rows.append(
             f"| `{name}` | {r['task']} | {r['seed']} | {waited:.1f} | {deg[0]} | {deg[1]} | {deg[2]} "
-            f"| {ended(r['completed'], r['finished_cleanly'])} "
+            f"| {ended(r)} "
             f"| {'—' if base is None else 'clean' if base else 'not clean'} |"
         )
         if waited > 0:
@@ -1833,8 +1835,8 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
         return ""
     said = [
         f"`{lever}`: it waited on {len(turn)} trials, the object righted by {np.median(turn):+.0f}° over the "
-        f"wait (median; negative: tipped further); {finished} of them finished cleanly, where the method it "
-        f"is on finished {base} of the {known} it has"
+        f"wait (median, negative where it tipped further): {finished} of them finished cleanly, where the "
+        f"method it is on finished {base} of the {known} it has"
         for lever, (turn, finished, base, known) in per.items()
     ]
     cols = ("lever", "task", "seed", "waited, s", "tilt where the wait began, °", "where it ended, °",
@@ -1845,7 +1847,9 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
         "long the reference's clock held (s), the object's tilt off the reference's (the spin about the "
         "vertical left out) where the wait began and where it ended (where the hand let go), and at the "
         "trial's end (— where it never waited, and the trial is the method's config in all that acts); "
-        "beside it how the method's trial on that seed ended (its stand-ins counted in). "
+        "beside it how the method's trial on that seed ended (its stand-ins counted in). The wait is decided "
+        "on the whole orientation error (`planner.pace_angle`, the spin about the vertical counted in), so an "
+        "object spun but upright waits too. "
         + "; ".join(said)
         + ".\n\n"
         + pipe_table(cols, "lllrrrrll", rows)
