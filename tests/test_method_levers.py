@@ -886,6 +886,33 @@ def test_carry_leaves_an_object_without_a_free_body_alone(scene_for):
     planner.close()
 
 
+def _turned_object(scene, problem, t: float, about: np.ndarray):
+    """The hand at home and the object at the reference's pose at ``t`` turned by the quaternion ``about``
+    (world frame): ``(the object's qpos, the full-physics state, turn)``, ``turn(step)`` the angular
+    velocity a carry step's hinge part gives the wrist (its rotational Jacobian at that state) and the
+    swing of the object about the wrist under it."""
+    m = scene.planner_model
+    d = mujoco.MjData(m)
+    d.qpos[scene.index.hand_qpos] = scene.task.hand_home
+    qo = problem.track.object_qpos[problem.track.index(t)].copy()
+    turned = np.zeros(4)
+    mujoco.mju_mulQuat(turned, about, qo[3:7].copy())
+    qo[3:7] = turned
+    d.qpos[scene.index.object_qpos] = qo
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_comPos(m, d)
+    jacr = np.zeros((3, m.nv))
+    mujoco.mj_jacBody(m, d, None, jacr, scene.index.root_body)
+
+    def turn(step):
+        omega = jacr[:, scene.index.hand_dof[3:6]] @ step[3:]
+        return omega, np.cross(omega, qo[:3] - d.xpos[scene.index.root_body])
+
+    return qo, state, turn
+
+
 def test_carry_turns_the_wrist_toward_the_references_orientation_and_keeps_the_object_in_place(scene_for):
     """planner.carry_turn: the hinge step turns the wrist (through its rotational Jacobian) by gain x dt x
     the rotation from the object's orientation to the reference's, and the translation step cancels the
@@ -896,29 +923,14 @@ def test_carry_turns_the_wrist_toward_the_references_orientation_and_keeps_the_o
     ref = static_reference(scene, duration=1.0, frames=11)
     ref.object_qpos[:, 2] += np.linspace(0.0, 0.1, 11)
     problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
-    m = scene.planner_model
-    d = mujoco.MjData(m)
-    d.qpos[scene.index.hand_qpos] = scene.task.hand_home
-    qo = problem.track.object_qpos[problem.track.index(1.6)].copy()
-    expected_quat = qo[3:7].copy()
-    turned = np.zeros(4)
     about_z = np.array([np.cos(0.1), 0.0, 0.0, np.sin(0.1)])  # 0.2 rad about world z
-    mujoco.mju_mulQuat(turned, about_z, expected_quat)
-    qo[3:7] = turned
-    d.qpos[scene.index.object_qpos] = qo
-    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    qo, state, turn = _turned_object(scene, problem, 1.6, about_z)
     planner = PredictiveSampling(num_samples=2, horizon=0.2, nthread=1, carry_gain=1.0, carry_turn=1.0)
     planner.bind(problem)
     planner.carry(1.1, 1.1, state)  # (the first plan: dt = replan_period)
     step = planner.carry(1.6, 1.6, state)
-    mujoco.mj_kinematics(m, d)
-    mujoco.mj_comPos(m, d)
-    jacr = np.zeros((3, m.nv))
-    mujoco.mj_jacBody(m, d, None, jacr, scene.index.root_body)
-    omega = jacr[:, scene.index.hand_dof[3:6]] @ step[3:]
+    omega, swing = turn(step)
     np.testing.assert_allclose(omega, [0.0, 0.0, -0.2 * 0.5], atol=1e-6)  # back toward the reference's
-    swing = np.cross(omega, qo[:3] - d.xpos[scene.index.root_body])
     np.testing.assert_allclose(step[:3], -swing, atol=1e-9)  # (the object's position is the reference's)
     planner.close()
 
@@ -935,20 +947,8 @@ def test_pace_turn_turns_a_set_down_object_toward_the_references_orientation_whi
     scene = scene_for("apple")
     ref = static_reference(scene, duration=1.0, frames=11)  # contact expected throughout, the object still
     problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
-    m = scene.planner_model
-    d = mujoco.MjData(m)
-    d.qpos[scene.index.hand_qpos] = scene.task.hand_home
-    qo = problem.track.object_qpos[problem.track.index(0.6)].copy()  # on the table, where it starts
-    tipped = np.zeros(4)
-    mujoco.mju_mulQuat(tipped, np.array([np.cos(0.25), np.sin(0.25), 0.0, 0.0]), qo[3:7].copy())  # 0.5 rad
-    qo[3:7] = tipped
-    d.qpos[scene.index.object_qpos] = qo
-    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    mujoco.mj_kinematics(m, d)
-    mujoco.mj_comPos(m, d)
-    jacr = np.zeros((3, m.nv))
-    mujoco.mj_jacBody(m, d, None, jacr, scene.index.root_body)
+    about_x = np.array([np.cos(0.25), np.sin(0.25), 0.0, 0.0])  # 0.5 rad about world x
+    _, state, turn = _turned_object(scene, problem, 0.6, about_x)  # on the table, where it starts
 
     def planner_at(turn):
         planner = PredictiveSampling(
@@ -970,9 +970,8 @@ def test_pace_turn_turns_a_set_down_object_toward_the_references_orientation_whi
     planner.pace(0.7, 0.7, state)  # turned 0.5 rad > pace_angle: the clock holds from 0.7 on
     assert planner.waiting(0.7) and planner.waiting(0.8)
     step = planner.carry(0.7, 0.7, state)
-    omega = jacr[:, scene.index.hand_dof[3:6]] @ step[3:]
+    omega, swing = turn(step)
     np.testing.assert_allclose(omega, [-0.5 * 0.1, 0.0, 0.0], atol=1e-6)  # back upright: 0.1 s x 0.5 rad
-    swing = np.cross(omega, qo[:3] - d.xpos[scene.index.root_body])
     np.testing.assert_allclose(step[:3], -swing, atol=1e-9)  # the object kept where it is
     planner.close()
     planner = planner_at(0.0)

@@ -1501,8 +1501,8 @@ def test_the_latency_s_demand_on_the_machine_is_read_from_the_records_and_the_be
 
 def test_the_method_study_reads_a_paced_trials_wait_and_the_tilt_over_it(tmp_path) -> None:
     """paced_waits: how long the reference fell behind in all, and the object's tilt off the reference's
-    where the wait began and where it ended; NaN tilts where it never waited; None without a logged
-    reference time."""
+    where the wait began, where it ended and at the end; NaN for the wait's tilts where it never waited;
+    None without a logged reference time."""
     import numpy as np
 
     spec = Study("method").spec
@@ -1516,11 +1516,12 @@ def test_the_method_study_reads_a_paced_trials_wait_and_the_tilt_over_it(tmp_pat
     run.mkdir()
     np.savez(run / "timeseries.npz", time=t, reference_time=t - behind, object_qpos=tipped,
              expected_object_qpos=upright)  # fmt: skip
-    waited, began, ended = spec.paced_waits(run / "trial.json")
+    waited, began, ended, end = spec.paced_waits(run / "trial.json")
     assert waited == 1.5 and began == pytest.approx(0.0) and ended == pytest.approx(10.0)
+    assert end == pytest.approx(5.0)
     np.savez(run / "timeseries.npz", time=t, reference_time=t, object_qpos=tipped,
              expected_object_qpos=upright)  # fmt: skip
-    waited, began, ended = spec.paced_waits(run / "trial.json")
-    assert waited == 0.0 and np.isnan(began) and np.isnan(ended)
+    waited, began, ended, end = spec.paced_waits(run / "trial.json")
+    assert waited == 0.0 and np.isnan(began) and np.isnan(ended) and end == pytest.approx(5.0)
     np.savez(run / "timeseries.npz", time=t, object_qpos=tipped, expected_object_qpos=upright)
     assert spec.paced_waits(run / "trial.json") is None

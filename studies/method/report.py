@@ -1198,6 +1198,14 @@ def stacked(ok: pd.DataFrame) -> str:
     )
 
 
+def lever_names(ok: pd.DataFrame) -> tuple[dict[str, str], dict[str, str]]:
+    """Per lever of ``ok`` (:func:`lever_frame`): the method it ran on (:func:`built_on`), and its name in
+    the report's tables: the lever alone on the method most levers ran on, else ``lever` on `method``."""
+    on = built_on(ok)
+    bases = {lever: built_on(g) for lever, g in ok.groupby("lever", sort=True)}  # the method each is on
+    return bases, {lever: lever if m == on else f"{lever}` on `{m}" for lever, m in bases.items()}
+
+
 def levers_section(study, chosen: pd.DataFrame) -> str:
     """Each lever on top of a method (:data:`LEVERS`; the method they ran on, :func:`built_on`) against that
     method's trials on the same seeds (on the held-out ones with its stand-ins, :func:`heldout_frame`), per
@@ -1214,13 +1222,11 @@ def levers_section(study, chosen: pd.DataFrame) -> str:
     )
     if not len(ok):
         return head + "No such trial is kept yet.\n"
-    held = heldout_frame(study, chosen)[0]  # the methods' trials on the held-out seeds, stand-ins counted in
-    every = pd.concat([counted(chosen), held])
+    every = with_heldout(study, chosen)  # the held-out seeds' with the stand-ins counted in
     rows, fig_rows = [], []
     # each override once, also where several levers combine it (carry=pose, carry=pose pacing=release)
     notes = [f"- {_lever_text(part)}" for part in sorted({p for lever in ok["lever"] for p in lever.split()})]
-    bases = {lever: built_on(g) for lever, g in ok.groupby("lever", sort=True)}  # the method each is on
-    named = {lever: lever if m == on else f"{lever}` on `{m}" for lever, m in bases.items()}
+    bases, named = lever_names(ok)
     base_of = {lever: every[every["variant"] == m] if len(every) else every for lever, m in bases.items()}
     for lever, g in ok.groupby("lever", sort=True):
         base = base_of[lever]
@@ -1768,11 +1774,11 @@ def set_down_tilt(done: pd.DataFrame) -> str:
     )
 
 
-def paced_waits(record_path) -> tuple[float, float, float] | None:
+def paced_waits(record_path) -> tuple[float, float, float, float] | None:
     """A paced trial's wait, from its ``timeseries.npz``: ``(seconds the reference fell behind in all, the
-    object's tilt off the reference's where it began to wait, where it stopped)`` (degrees,
-    :func:`~contactmpc.tasks.layout.tilt_angle`); NaN tilts where it never waited; ``None`` without a series
-    that logs the reference's time or a single free body."""
+    object's tilt off the reference's where it began to wait, where it stopped, at the trial's end)``
+    (degrees, :func:`~contactmpc.tasks.layout.tilt_angle`); NaN for the wait's tilts where it never waited;
+    ``None`` without a series that logs the reference's time or a single free body."""
     from contactmpc.tasks.layout import tilt_angle
 
     series = Path(record_path).parent / "timeseries.npz"
@@ -1783,10 +1789,10 @@ def paced_waits(record_path) -> tuple[float, float, float] | None:
         return None
     behind = z["time"] - z["reference_time"]
     waiting = np.flatnonzero(np.diff(behind) > 1e-9)  # rows after which the reference fell further behind
-    if not len(waiting):
-        return 0.0, math.nan, math.nan
     angle = np.degrees(tilt_angle(z["object_qpos"][:, 3:7], z["expected_object_qpos"][:, 3:7]))
-    return float(behind.max()), float(angle[waiting[0]]), float(angle[waiting[-1] + 1])
+    if not len(waiting):
+        return 0.0, math.nan, math.nan, float(angle[-1])
+    return float(behind.max()), float(angle[waiting[0]]), float(angle[waiting[-1] + 1]), float(angle[-1])
 
 
 def paced_release(study, chosen: pd.DataFrame) -> str:
@@ -1796,11 +1802,11 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
     ok = lever_frame(study)
     if not len(ok):
         return ""
+    bases, named = lever_names(ok)  # (as the levers' table names them)
     ok = ok[[any(p.startswith("pacing=release") for p in lever.split()) for lever in ok["lever"]]]
     if not len(ok):
         return ""
-    every = pd.concat([counted(chosen), heldout_frame(study, chosen)[0]])
-    bases = {lever: built_on(g) for lever, g in ok.groupby("lever")}  # the method each lever is on
+    every = with_heldout(study, chosen)
     clean = {
         (r["variant"], r["task"], r["seed"]): bool(r["finished_cleanly"]) for r in every.to_dict("records")
     }
@@ -1815,14 +1821,12 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
         waits = paced_waits(r["record_path"])
         if waits is None:
             continue
-        waited, began, stopped = waits
-        end = tilts(r["record_path"], r.get("contact_span_end"))[1]
+        waited, began, stopped, end = waits
         base = clean.get((bases[r["lever"]], r["task"], r["seed"]))
         deg = [("—" if math.isnan(x) else f"{x:.0f}") for x in (began, stopped, end)]
-        name = r["lever"] if bases[r["lever"]] == METHOD else f"{r['lever']}` on `{bases[r['lever']]}"
         rows.append(
-            f"| `{name}` | {r['task']} | {r['seed']} | {waited:.1f} | {deg[0]} | {deg[1]} | {deg[2]} "
-            f"| {ended(r)} "
+            f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {waited:.1f} | {deg[0]} | {deg[1]} "
+            f"| {deg[2]} | {ended(r)} "
             f"| {'—' if base is None else 'clean' if base else 'not clean'} |"
         )
         if waited > 0:
@@ -1834,9 +1838,9 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
     if not rows:
         return ""
     said = [
-        f"`{lever}`: it waited on {len(turn)} trials, the object righted by {np.median(turn):+.0f}° over the "
-        f"wait (median, negative where it tipped further): {finished} of them finished cleanly, where the "
-        f"method it is on finished {base} of the {known} it has"
+        f"`{named[lever]}`: it waited on {len(turn)} trials, the object righted by {np.median(turn):+.0f}° "
+        f"over the wait (median, negative where it tipped further): {finished} of them finished cleanly, "
+        f"where the method it is on finished {base} of the {known} it has"
         for lever, (turn, finished, base, known) in per.items()
     ]
     cols = ("lever", "task", "seed", "waited, s", "tilt where the wait began, °", "where it ended, °",
