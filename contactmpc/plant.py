@@ -20,6 +20,23 @@ from contactmpc.perturbations import Perturbation, PerturbationDraw
 from contactmpc.scene import Scene
 
 
+def warnings(model: mujoco.MjModel, data: mujoco.MjData) -> str:
+    """The MuJoCo warnings ``data`` has raised, as ``" (mjWARN_BADQACC at DOF 7 (its joint))"``: each
+    warning's name and what MuJoCo reported with it (the DOF and its joint, for a bad qpos, qvel or qacc);
+    ``""`` without any."""
+    said, per_dof = [], ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
+    for name, kind in mujoco.mjtWarning.__members__.items():
+        if name == "mjNWARNING" or not data.warning[int(kind)].number:
+            continue
+        info = int(data.warning[int(kind)].lastinfo)
+        if name in per_dof and 0 <= info < model.nv:
+            joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, int(model.dof_jntid[info]))
+            said.append(f"{name} at DOF {info} ({joint})")
+        else:
+            said.append(f"{name} ({info})")
+    return f" ({', '.join(said)})" if said else ""
+
+
 class PlantDiverged(RuntimeError):
     """The plant simulation went unstable (MuJoCo warning or non-finite state).
 
@@ -145,8 +162,9 @@ class Plant:
         (a MuJoCo warning or a non-finite configuration)."""
         d = self.data
         if d.warning.number.any() or not np.isfinite(d.qpos).all():
-            # MuJoCo resets a diverged plant (d.time restarts): name the control time
-            raise PlantDiverged(f"plant diverged between t={t0:.3f}s and t={t1:.3f}s", t0)
+            # MuJoCo resets a diverged plant (d.time restarts): name the control time, and the warning
+            said = warnings(self.model, d)
+            raise PlantDiverged(f"plant diverged between t={t0:.3f}s and t={t1:.3f}s{said}", t0)
 
     def log(
         self, log: TrialLog, t: float, target: np.ndarray, info: PlanInfo, reference_time: float | None = None

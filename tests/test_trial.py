@@ -226,6 +226,7 @@ def test_a_plant_that_diverges_inside_the_span_fails_there(tmp_path):
         run_job(overrides, tmp_path / "run")
     record = json.loads((tmp_path / "run" / "trial.json").read_text())
     assert record["status"] == "diverged" and record["error"].startswith("PlantDiverged: plant diverged")
+    assert "(mjWARN_BADQACC at DOF" in record["error"]  # the warning that stopped it, and where
     end, (first, last) = record["diverged_time"], (record["contact_span_start"], record["contact_span_end"])
     assert (first, last) == (0.0, pytest.approx(0.95))  # the whole trial's span, not the log's
     assert first < end < last and record["simulated_seconds"] == end
