@@ -136,7 +136,9 @@ class Trial:
         self.progress = progress
         plant_dt = scene.plant_model.opt.timestep
         check_planner_timing(scene, planner)
-        if planner.pace_lag is not None:  # a paced reference may fall pace_budget behind control time
+        if planner.pace_lag is not None and scene.task.layout.free_columns:
+            # a paced reference may fall pace_budget behind control time (only on a free object: it never
+            # waits on one that moves on joints alone, so the trial there is the unpaced one)
             slowed = reference.duration * scene.task.time_scale
             duration = (slowed if duration is None else duration) + planner.pace_budget
         self.problem = Problem.build(

@@ -701,6 +701,26 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
 
 
+def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_files, scene_for):
+    """pacing=release_turn on the doorknob, whose object has no free body to wait for: the reference never
+    waits and the trial runs no longer: pacing=none's trial bit for bit (its log adds the reference's time,
+    the control time's)."""
+    assert not scene_for("doorknob").task.layout.free_columns
+    overrides = ["task=doorknob", f"task.reference_path={reference_files['doorknob']}", *TINY]
+    overrides += ["job.progress=false"]
+    base = run_job(overrides, tmp_path / "off")
+    paced = run_job(overrides + ["pacing=release_turn"], tmp_path / "on")
+    off, on = json.loads(base.read_text()), json.loads(paced.read_text())
+    assert on["status"] == "ok" and on["config"]["planner"]["pace_turn"] == 1.0
+    assert on["simulated_seconds"] == off["simulated_seconds"] and on["num_plans"] == off["num_plans"]
+    a, b = np.load(base.parent / "timeseries.npz"), np.load(paced.parent / "timeseries.npz")
+    assert set(b.files) - set(a.files) == {"reference_time"}
+    np.testing.assert_array_equal(b["reference_time"], b["time"])
+    for key in a.files:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
 def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for):
     """pacing=release on a reference whose object rises while the tiny planner cannot lift it, and which lets
     go: the reference's clock falls behind only where its time lies in the 0.5 s before the last expected

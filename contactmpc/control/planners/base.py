@@ -154,7 +154,7 @@ class Planner:
             every time-indexed part of a plan (the cost's reference, the sampled control points, the
             acquire and release phases, the policy's targets) follows the reference's clock
             (:meth:`reference_time`). ``None`` (the paper): the reference runs with control time. A trial
-            then runs ``pace_budget`` longer.
+            on a free object then runs ``pace_budget`` longer; on one without a free body it never waits.
         pace_budget: control time the reference may fall behind in all (s).
         pace_rate: the reference's clock rate while it waits, in [0, 1): 0 holds it.
         pace_angle: wait also while the free object's orientation is more than this many radians from
