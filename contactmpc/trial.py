@@ -140,7 +140,8 @@ class Trial:
             # a paced reference may fall pace_budget behind control time (only on a free object: it never
             # waits on one that moves on joints alone, so the trial there is the unpaced one)
             slowed = reference.duration * scene.task.time_scale
-            duration = (slowed if duration is None else duration) + planner.pace_budget
+            budgets = 1 if planner.pace_grasp is None else 2  # (the grasp's wait has a budget of its own)
+            duration = (slowed if duration is None else duration) + budgets * planner.pace_budget
         self.problem = Problem.build(
             scene, reference, space, cost, planner.horizon, num_control_points, duration
         )

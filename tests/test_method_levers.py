@@ -664,6 +664,58 @@ def test_a_paced_release_waits_only_in_its_window_for_the_object_placed_and_upri
     upright_only.close()
 
 
+def test_pace_grasp_holds_the_grasp_for_a_lagging_object_on_a_budget_of_its_own(scene_for):
+    """planner.pace_grasp (pacing=hold_release_turn): before the release's window the reference's clock holds
+    from the first expected contact while the object is more than pace_grasp from the reference's, up to
+    pace_budget; the window's wait then has its whole budget again; pace_turn turns the wrist only in the
+    window's wait; refused without a window."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:2] = False  # expected contact from 0.2 to 0.7 s of the demonstration
+    ref.contact_active[8:] = False
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    first, last = problem.first_contact, problem.last_contact
+    kwargs = dict(num_samples=2, horizon=0.2, nthread=1, pace_lag=0.02, pace_window=(-0.2, 0.0))
+    planner = PredictiveSampling(**kwargs, pace_grasp=0.01, pace_budget=0.3, pace_turn=1.0)
+    planner.bind(problem)
+    state = np.zeros(mujoco.mj_stateSize(scene.planner_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    placed = problem.track.object_qpos[0]
+    lagging, slipped = placed.copy(), placed.copy()
+    lagging[2] -= 0.05
+    slipped[2] -= 0.015  # past pace_grasp (1 cm), within pace_lag (2 cm), and turned
+    q = scene.task.layout.quat_index
+    slipped[q : q + 4] = [np.cos(0.1), np.sin(0.1), 0.0, 0.0]  # 0.2 rad about x
+
+    def at(qo):
+        state[1 + scene.index.object_qpos] = qo
+        return state
+
+    planner.pace(first - 0.1, first - 0.1, at(lagging))  # before the first contact: runs on
+    assert planner.reference_time(first) == pytest.approx(first)
+    s = first + 0.05  # in the grasp, 1.5 cm off: held
+    planner.pace(s, s, at(slipped))
+    assert planner.waiting(s + 0.1) and planner.reference_time(s + 0.1) == pytest.approx(s)
+    assert not planner.carry(s + 0.1, s, at(slipped)).any()  # set down and waiting, but not the window's wait
+    planner.pace(s + 0.5, s, at(slipped))  # the grasp's budget (0.3 s) spent: runs on, 0.3 s behind
+    assert not planner.waiting(s + 0.6) and planner.reference_time(s + 0.6) == pytest.approx(s + 0.3)
+    w = last - 0.1  # in the window: its own budget, whole
+    planner.pace(w + 0.3, w, at(lagging))
+    assert planner.waiting(w + 0.4) and planner.reference_time(w + 0.5) == pytest.approx(w)
+    planner.pace(w + 0.5, w, at(lagging))  # held until its own 0.3 s are spent: 0.6 s behind in all
+    assert planner.reference_time(w + 0.6) == pytest.approx(w)
+    assert planner.reference_time(w + 0.8) == pytest.approx(w + 0.2)
+    alone = PredictiveSampling(**kwargs, pace_budget=0.3)  # without pace_grasp: the grasp runs on
+    alone.bind(problem)
+    alone.pace(s, s, at(lagging))
+    assert alone.reference_time(s + 0.1) == pytest.approx(s + 0.1)
+    with pytest.raises(ConfigError, match="pace_grasp"):
+        PredictiveSampling(pace_lag=0.02, pace_grasp=0.01)
+    planner.close()
+    alone.close()
+
+
 def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_path, late_contact_reference):
     """pacing=hold on a reference whose object rises while the tiny planner cannot lift it: the reference's
     clock falls behind only after the first expected contact, by at most the budget, the trial runs the
@@ -724,7 +776,9 @@ def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_fil
 def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for):
     """pacing=release on a reference whose object rises while the tiny planner cannot lift it, and which lets
     go: the reference's clock falls behind only where its time lies in the 0.5 s before the last expected
-    contact, by at most the budget, and the trial runs the budget longer."""
+    contact, by at most the budget, and the trial runs the budget longer; with the grasp paced too
+    (pacing=hold_release_turn) it falls behind there as well, by a budget of its own, and the trial runs
+    twice the budget longer."""
     ref = static_reference(scene_for("apple"), duration=1.0, frames=11)
     ref.object_qpos[:, 2] += np.linspace(0.0, 0.05, 11)
     ref.contact_active[:2] = False
@@ -744,6 +798,15 @@ def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for)
     held = np.flatnonzero(np.diff(s) == 0)
     assert held.size and (s[held] >= last - 0.5 - 0.2).all() and (s[held] < last).all()
     assert not behind[s < last - 0.7].any()
+    both = ["pacing=hold_release_turn", "planner.pace_budget=0.3", "planner.pace_grasp=0.005"]
+    both = run_job(overrides + both + ["planner.pace_lag=0.01"], tmp_path / "both")
+    record, base = json.loads(both.read_text()), record  # the grasp waits too, on a budget of its own
+    assert record["status"] == "ok" and record["config"]["planner"]["pace_grasp"] == 0.005
+    assert record["simulated_seconds"] == pytest.approx(base["simulated_seconds"] + 0.3)
+    series = np.load(both.parent / "timeseries.npz")
+    behind = series["time"] - series["reference_time"]
+    assert behind.max() == pytest.approx(0.6, abs=1e-9)  # 0.3 s in the grasp, 0.3 s in the window
+    assert behind[series["reference_time"] < last - 0.7].max() == pytest.approx(0.3, abs=1e-9)
 
 
 def test_carry_shifts_the_wrist_by_the_carried_objects_slip_and_keeps_the_shift(scene_for):

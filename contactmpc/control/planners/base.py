@@ -163,6 +163,12 @@ class Planner:
             while the reference's time is in that interval (``(-0.5, 0.0)``: the release waits for the
             object to be where the reference sets it down); ``None``: anywhere between the first and last
             expected contact.
+        pace_grasp: with ``pace_window``, wait also before that window (not the paper's; m): from the
+            reference's first expected contact until its window begins, while the free object's position
+            is more than this many metres from the reference's (``pace_window`` ``None``'s rule: a lift
+            waits for a grasp), for up to ``pace_budget`` of its own, so the window's wait keeps its
+            whole budget; a trial then runs twice ``pace_budget`` longer. ``pace_turn`` acts only in the
+            window's wait. ``None``: the window alone.
         carry_gain: carry the object where the reference has it (not the paper's; 1/s): while the free
             object and the reference's are both more than ``carry_lift`` above where the object starts
             (it is carried), each plan moves the wrist's committed translation, on the control points from
@@ -264,6 +270,7 @@ class Planner:
         pace_rate: Annotated[float, Ge(0)] = 0.0,
         pace_angle: Annotated[float, Gt(0)] | None = None,
         pace_window: tuple[float, float] | None = None,
+        pace_grasp: Annotated[float, Gt(0)] | None = None,
         carry_gain: Annotated[float, Ge(0)] = 0.0,
         carry_lift: Annotated[float, Ge(0)] = 0.02,
         carry_limit: Annotated[float, Ge(0)] = 0.1,
@@ -311,6 +318,14 @@ class Planner:
         self.pace_rate = float(pace_rate)
         self.pace_angle = None if pace_angle is None else float(pace_angle)
         self.pace_window = time_window("planner.pace_window", pace_window)
+        if pace_grasp is not None and (pace_lag is None or pace_window is None):
+            raise ConfigError(
+                "planner.pace_grasp paces the grasp before the release's window: set planner.pace_lag and "
+                "planner.pace_window"
+            )
+        self.pace_grasp = None if pace_grasp is None else float(pace_grasp)
+        self._paced_release = False  # (pace_grasp) the clock was last held by the window's rule
+        self._grasp_behind = 0.0  # (pace_grasp) how far the grasp's waits left the reference behind
         self.carry_gain = float(carry_gain)
         self.carry_lift = float(carry_lift)
         self.carry_limit = float(carry_limit)
@@ -429,6 +444,7 @@ class Planner:
         paced reference's clock at control time."""
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
+        self._paced_release, self._grasp_behind = False, 0.0
         self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
         self._held = False
         self._path = None
@@ -723,19 +739,29 @@ class Planner:
         first, last = problem.first_contact, problem.last_contact
         at = self.reference_time(t)
         behind = t - at
+        grasp = False  # (pace_grasp) the grasp's rule, before the window
         if self.pace_window is None:
             wait = first is not None and first - 1e-9 <= s and (last is None or s < last - 1e-9)
         else:
             start, end = self.pace_window
             wait = last is not None and last + start - 1e-9 <= s < last + end - 1e-9
-        if wait and behind < self.pace_budget - 1e-9:
+            if self.pace_grasp is not None and (last is None or s < last + start - 1e-9):
+                grasp = first is not None and first - 1e-9 <= s
+                self._grasp_behind = behind  # (all the grasp's waits, once the window is reached)
+        spent = behind if grasp else behind - self._grasp_behind  # this rule's budget spent
+        if (wait or grasp) and spent < self.pace_budget - 1e-9:
             scene, track = problem.scene, problem.track
             error = scene.task.layout.error(self.object_qpos(state), track.object_qpos[track.index(s)])
             lag = float(error.position)
-            turned = self.pace_angle is not None and float(error.rotation) > self.pace_angle
-            if lag > self.pace_lag or turned:
-                until = t + (self.pace_budget - behind) / (1.0 - self.pace_rate)
+            if grasp:
+                hold = lag > self.pace_grasp
+            else:
+                turned = self.pace_angle is not None and float(error.rotation) > self.pace_angle
+                hold = lag > self.pace_lag or turned
+            if hold:
+                until = t + (self.pace_budget - spent) / (1.0 - self.pace_rate)
                 self._clock = (t, at, self.pace_rate, until)
+                self._paced_release = not grasp
                 return
         if self._clock[2:] != (1.0, np.inf):  # (running on already: the same clock, exactly)
             self._clock = (t, at, 1.0, np.inf)
@@ -1124,7 +1150,7 @@ class Planner:
         start = track.object_qpos[0, c + 2]
         if min(qo[c + 2], expected[c + 2]) - start <= self.carry_lift:
             self._carry_since = None
-            if not (self.pace_turn and self.waiting(t)):
+            if not (self.pace_turn and self.waiting(t) and self._paced_release):
                 return step
             # (pace_turn) set down while the reference waits: turned toward where the reference sets it down
             step = self._turn(state, qo[c : c + 7], expected[c + 3 : c + 7], self.pace_turn * dt)
