@@ -1499,6 +1499,40 @@ def test_the_latency_s_demand_on_the_machine_is_read_from_the_records_and_the_be
     assert spec.threads_needed(study, records[2:], ok, 170.0) == ""  # a held-out seed only
 
 
+def test_the_method_study_splits_a_paced_trials_waits_into_the_grasps_and_the_releases(tmp_path) -> None:
+    """grasp_waits: the reference's waits before the release's window (pace_window from the last expected
+    contact, read from the record): how long, when the first began after the first expected contact, the
+    object's position error there and where the last ended; paced_waits then counts only the window's. A
+    trial without a window (pacing=hold): every wait is the grasp's."""
+    import json
+
+    import numpy as np
+
+    spec = Study("method").spec
+    t = np.arange(12) * 0.5
+    behind = np.array(
+        [0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 1.5, 1.5]
+    )  # grasp: 1 s, release: 0.5 s
+    s = t - behind
+    expected = np.zeros((12, 3), bool)
+    expected[(s >= 0.5) & (s <= 3.5)] = True  # the reference's contact from 0.5 s to 3.5 s of its time
+    error = np.array([0, 0, 0.01, 0.03, 0.02, 0.005, 0, 0, 0, 0, 0, 0])
+    qpos = np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (12, 1))
+    run = tmp_path / "run"
+    run.mkdir()
+    np.savez(run / "timeseries.npz", time=t, reference_time=s, expected_contacts=expected,
+             object_position_error=error, object_qpos=qpos, expected_object_qpos=qpos)  # fmt: skip
+    (run / "trial.json").write_text(json.dumps({"config": {"planner": {"pace_window": [-0.5, 0.0]}}}))
+    waited, began, at, ended = spec.grasp_waits(run / "trial.json")
+    assert waited == 1.0 and began == pytest.approx(0.5) and at == pytest.approx(10.0)
+    assert ended == pytest.approx(20.0)  # (row 4: after the grasp's last wait)
+    waited, _, _, _ = spec.paced_waits(run / "trial.json")
+    assert waited == pytest.approx(0.5)  # the window's alone
+    (run / "trial.json").write_text(json.dumps({"config": {"planner": {"pace_window": None}}}))
+    waited, _, _, _ = spec.grasp_waits(run / "trial.json")
+    assert waited == 1.5  # no window: every wait is the grasp's
+
+
 def test_the_method_study_reads_a_paced_trials_wait_and_the_tilt_over_it(tmp_path) -> None:
     """paced_waits: how long the reference fell behind in all, and the object's tilt off the reference's
     where the wait began, where it ended and at the end; NaN for the wait's tilts where it never waited;

@@ -1774,48 +1774,166 @@ def set_down_tilt(done: pd.DataFrame) -> str:
     )
 
 
-def paced_waits(record_path) -> tuple[float, float, float, float] | None:
-    """A paced trial's wait, from its ``timeseries.npz``: ``(seconds the reference fell behind in all, the
-    object's tilt off the reference's where it began to wait, where it stopped, at the trial's end)``
-    (degrees, :func:`~contactmpc.tasks.layout.tilt_angle`); NaN for the wait's tilts where it never waited;
-    ``None`` without a series that logs the reference's time or a single free body."""
-    from contactmpc.tasks.layout import tilt_angle
-
+def _paced_series(record_path):
+    """A paced trial's ``timeseries.npz`` (None without one that logs the reference's time), and its rows
+    whose reference time lies before the release's window (``planner.pace_window`` from the reference's last
+    expected contact, read from the series): the grasp's waits (``planner.pace_grasp``, or ``pacing=hold``
+    without a window) are there, the release's after; all rows without a window."""
     series = Path(record_path).parent / "timeseries.npz"
     if not series.is_file():
-        return None
+        return None, None
     z = np.load(series)
-    if "reference_time" not in z.files or z["object_qpos"].shape[-1] != 7:
+    if "reference_time" not in z.files:
+        return None, None
+    record = Path(record_path)
+    window = None
+    if record.is_file():
+        window = ((read_record(record).get("config") or {}).get("planner") or {}).get("pace_window")
+    s = z["reference_time"]
+    touch = z["expected_contacts"].any(axis=1) if "expected_contacts" in z.files else np.zeros(len(s), bool)
+    if window is None or not touch.any():
+        return z, np.ones(len(s), bool) if window is None else np.zeros(len(s), bool)
+    return z, s < s[touch].max() + window[0] - 1e-9
+
+
+def paced_waits(record_path) -> tuple[float, float, float, float] | None:
+    """A paced trial's release wait, from its ``timeseries.npz``: ``(seconds the reference fell behind there
+    in all, the object's tilt off the reference's where it began to wait, where it stopped, at the trial's
+    end)`` (degrees, :func:`~contactmpc.tasks.layout.tilt_angle`); NaN for the wait's tilts where it never
+    waited; ``None`` without a series that logs the reference's time or a single free body. A trial that
+    paces the grasp too (``planner.pace_grasp``) counts only the waits from the release's window on."""
+    from contactmpc.tasks.layout import tilt_angle
+
+    z, grasp = _paced_series(record_path)
+    if z is None or z["object_qpos"].shape[-1] != 7:
         return None
     behind = z["time"] - z["reference_time"]
-    waiting = np.flatnonzero(np.diff(behind) > 1e-9)  # rows after which the reference fell further behind
+    if grasp.all():  # (no window: every wait counts)
+        grasp = np.zeros(len(grasp), bool)
+    before = behind[grasp].max() if grasp.any() else 0.0  # the grasp's waits
+    waiting = np.flatnonzero((np.diff(behind) > 1e-9) & ~grasp[:-1])  # rows after which it fell behind
     angle = np.degrees(tilt_angle(z["object_qpos"][:, 3:7], z["expected_object_qpos"][:, 3:7]))
     if not len(waiting):
         return 0.0, math.nan, math.nan, float(angle[-1])
-    return float(behind.max()), float(angle[waiting[0]]), float(angle[waiting[-1] + 1]), float(angle[-1])
+    return (
+        float(behind.max() - before),
+        float(angle[waiting[0]]),
+        float(angle[waiting[-1] + 1]),
+        float(angle[-1]),
+    )
+
+
+def grasp_waits(record_path) -> tuple[float, float, float, float] | None:
+    """A trial's grasp wait (``pacing=hold*``), from its ``timeseries.npz``: ``(seconds the reference fell
+    behind before the release's window, the reference's time where it first waited after its first expected
+    contact (s), the object's position error there and where the grasp's last wait ended (mm))``; NaN but
+    the first where it never waited there; ``None`` without a series that logs the reference's time and its
+    expected contacts."""
+    z, grasp = _paced_series(record_path)
+    if z is None or "expected_contacts" not in z.files or not z["expected_contacts"].any():
+        return None
+    s = z["reference_time"]
+    behind = z["time"] - s
+    waiting = np.flatnonzero((np.diff(behind) > 1e-9) & grasp[:-1])
+    if not len(waiting):
+        return 0.0, math.nan, math.nan, math.nan
+    first = s[z["expected_contacts"].any(axis=1)].min()
+    error = z["object_position_error"] * 1e3
+    return (float(behind[grasp].max()), float(s[waiting[0]] - first), float(error[waiting[0]]),
+            float(error[waiting[-1] + 1]))  # fmt: skip
+
+
+def _paced_levers(study, chosen: pd.DataFrame, kind: str):
+    """The lever trials whose ``pacing`` member names ``kind`` (``"release"``: the release paced, ``"hold"``:
+    the grasp), as ``(trials, each lever's method, each lever's name as the levers' table has it, whether
+    the method finished cleanly per (method, task, seed), stand-ins counted in)``; ``None`` without any."""
+    ok = lever_frame(study)
+    if not len(ok):
+        return None
+    bases, named = lever_names(ok)  # (as the levers' table names them)
+    ok = ok[[any(p.startswith("pacing=") and kind in p for p in lever.split()) for lever in ok["lever"]]]
+    if not len(ok):
+        return None
+    every = with_heldout(study, chosen)
+    clean = {
+        (r["variant"], r["task"], r["seed"]): bool(r["finished_cleanly"]) for r in every.to_dict("records")
+    }
+    return ok, bases, named, clean
+
+
+def _ended(r) -> str:
+    """How a trial (a record's row) ended: ``clean``, ``completed``, ``not completed`` or its status."""
+    if r["status"] != "ok":
+        return str(r["status"])  # (diverged: counted, not completed)
+    return "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
+
+
+def paced_lift(study, chosen: pd.DataFrame) -> str:
+    """The levers that pace the grasp (``pacing=hold*``) trial by trial: how long the reference waited before
+    the release's window, when it first waited, the object's position error there and where the grasp's
+    waits ended, and how the trial and the method's on that seed (stand-ins counted in) ended."""
+    found = _paced_levers(study, chosen, "hold")
+    if found is None:
+        return ""
+    ok, bases, named, clean = found
+    rows, per = [], {}
+    for r in ok.sort_values(["lever", "task", "seed"]).to_dict("records"):
+        waits = grasp_waits(r["record_path"])
+        if waits is None:
+            continue
+        waited, began, at, stopped = waits
+        base = clean.get((bases[r["lever"]], r["task"], r["seed"]))
+        cells = [
+            ("—" if math.isnan(x) else f"{x:{f}}")
+            for x, f in ((began, "+.1f"), (at, ".0f"), (stopped, ".0f"))
+        ]
+        rows.append(
+            f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {waited:.1f} | {' | '.join(cells)} "
+            f"| {_ended(r)} | {'—' if base is None else 'clean' if base else 'not clean'} |"
+        )
+        got = per.setdefault((r["lever"], r["task"]), [0, 0, 0, 0, 0, 0])
+        got[0] += waited > 0
+        got[1] += bool(r["finished_cleanly"])
+        got[2] += bool(base)
+        got[3] += base is not None
+        got[4] += bool(r["finished_cleanly"]) and base is False  # rescued
+        got[5] += not r["finished_cleanly"] and base is True  # lost
+    if not rows:
+        return ""
+    said = []
+    for (lever, task), (waited, finished, base, known, rescued, lost) in per.items():
+        n = int(((ok["lever"] == lever) & (ok["task"] == task)).sum())
+        said.append(
+            f"`{named[lever]}` on the {task}: {n} trials, the reference waited in the grasp on {waited}; "
+            f"{finished} finished cleanly, where the method finished {base} of the {known} it has on those "
+            f"seeds ({rescued} rescued, {lost} lost)"
+        )
+    cols = ("lever", "task", "seed", "waited in the grasp, s", "first waited, s after the first contact",
+            "object off the reference there, mm", "where the grasp's waits ended, mm", "the trial",
+            "the method it is on, that seed")  # fmt: skip
+    return (
+        "\n## The lift paced by the grasp\n\n"
+        "Each lever trial whose reference waits for the grasp (`pacing=hold*`: from the first expected "
+        "contact, while the object is more than 2 cm from where the reference has it, its clock holds, up "
+        "to 3 s; with `hold_release_turn` until the release's window, which has a budget of its own), from "
+        "its time series: how long the reference's clock held before the release's window, the reference's "
+        "time where it first held (after its first expected contact), the object's position error there "
+        "and where the grasp's last wait ended, how the trial ended, and how the method's trial on that "
+        "seed ended (its stand-ins counted in). "
+        + "; ".join(said)
+        + ".\n\n"
+        + pipe_table(cols, "lllrrrrll", rows)
+    )
 
 
 def paced_release(study, chosen: pd.DataFrame) -> str:
     """The levers that pace the release (``pacing=release*``) trial by trial: how long the reference waited,
     the object's tilt where the wait began and where it ended, at the trial's end, and how the trial and
     the method's on that seed (stand-ins counted in) ended."""
-    ok = lever_frame(study)
-    if not len(ok):
+    found = _paced_levers(study, chosen, "release")
+    if found is None:
         return ""
-    bases, named = lever_names(ok)  # (as the levers' table names them)
-    ok = ok[[any(p.startswith("pacing=release") for p in lever.split()) for lever in ok["lever"]]]
-    if not len(ok):
-        return ""
-    every = with_heldout(study, chosen)
-    clean = {
-        (r["variant"], r["task"], r["seed"]): bool(r["finished_cleanly"]) for r in every.to_dict("records")
-    }
-
-    def ended(r):
-        if r["status"] != "ok":
-            return str(r["status"])  # (diverged: counted, not completed)
-        return "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
-
+    ok, bases, named, clean = found
     rows, per = [], {}
     for r in ok.sort_values(["lever", "task", "seed"]).to_dict("records"):
         waits = paced_waits(r["record_path"])
@@ -1826,7 +1944,7 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
         deg = [("—" if math.isnan(x) else f"{x:.0f}") for x in (began, stopped, end)]
         rows.append(
             f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {waited:.1f} | {deg[0]} | {deg[1]} "
-            f"| {deg[2]} | {ended(r)} "
+            f"| {deg[2]} | {_ended(r)} "
             f"| {'—' if base is None else 'clean' if base else 'not clean'} |"
         )
         if waited > 0:
@@ -3871,6 +3989,7 @@ def report(study) -> str:
         + links_screen()
         + "\n## Where the object rests before the hand arrives\n\n"
         + from_figures(study, SETTLES, settles, "Not run yet (`python studies/method/settle.py`).\n")
+        + paced_lift(study, df)
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
         + "\n## Letting go\n\n"
