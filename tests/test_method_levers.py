@@ -609,36 +609,42 @@ def test_pacing_holds_the_reference_in_the_span_while_the_object_lags_up_to_its_
     off.close()
 
 
+def _paced_problem(scene_for):
+    """The apple's problem on a static reference expecting contact from 0.2 to 0.7 s of its demonstration, and
+    a function that puts an object configuration into a full-physics state of the planning model."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:2] = False
+    ref.contact_active[8:] = False
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    state = np.zeros(mujoco.mj_stateSize(scene.planner_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+
+    def at(qo):
+        state[1 + scene.index.object_qpos] = qo
+        return state
+
+    return scene, problem, at
+
+
 def test_a_paced_release_waits_only_in_its_window_for_the_object_placed_and_upright(scene_for):
     """planner.pace_window / pace_angle (pacing=release): the reference's clock holds only while its time
     lies in the window before the last expected contact, and there also while the object is turned more
     than pace_angle from the reference's (its position where the reference has it); a window that is not
     (start < end) is refused in one line."""
-    from contactmpc.control.problem import Problem
-
-    scene = scene_for("apple")
-    ref = static_reference(scene, duration=1.0, frames=11)
-    ref.contact_active[:2] = False  # expected contact from 0.2 to 0.7 s of the demonstration
-    ref.contact_active[8:] = False
-    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    scene, problem, at = _paced_problem(scene_for)
     first, last = problem.first_contact, problem.last_contact
     assert first is not None and last is not None and first < last - 0.5
     planner = PredictiveSampling(
         num_samples=2, horizon=0.2, nthread=1, pace_lag=0.02, pace_angle=0.3, pace_window=(-0.4, 0.0)
     )
     planner.bind(problem)
-    m = scene.planner_model
-    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
     placed = problem.track.object_qpos[0]
     lagging, turned = placed.copy(), placed.copy()
     lagging[2] -= 0.05
     q = scene.task.layout.quat_index
     turned[q : q + 4] = [np.cos(0.25), np.sin(0.25), 0.0, 0.0]  # 0.5 rad about x, in place
-
-    def at(qo):
-        state[1 + scene.index.object_qpos] = qo
-        return state
-
     s = first + 0.1  # in the span, before the window: runs on however far the object lags
     planner.pace(s, s, at(lagging))
     assert planner.reference_time(s + 0.1) == pytest.approx(s + 0.1)
@@ -669,28 +675,17 @@ def test_pace_grasp_holds_the_grasp_for_a_lagging_object_on_a_budget_of_its_own(
     from the first expected contact while the object is more than pace_grasp from the reference's, up to
     pace_budget; the window's wait then has its whole budget again; pace_turn turns the wrist only in the
     window's wait; refused without a window."""
-    from contactmpc.control.problem import Problem
-
-    scene = scene_for("apple")
-    ref = static_reference(scene, duration=1.0, frames=11)
-    ref.contact_active[:2] = False  # expected contact from 0.2 to 0.7 s of the demonstration
-    ref.contact_active[8:] = False
-    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    scene, problem, at = _paced_problem(scene_for)
     first, last = problem.first_contact, problem.last_contact
     kwargs = dict(num_samples=2, horizon=0.2, nthread=1, pace_lag=0.02, pace_window=(-0.2, 0.0))
     planner = PredictiveSampling(**kwargs, pace_grasp=0.01, pace_budget=0.3, pace_turn=1.0)
     planner.bind(problem)
-    state = np.zeros(mujoco.mj_stateSize(scene.planner_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
     placed = problem.track.object_qpos[0]
     lagging, slipped = placed.copy(), placed.copy()
     lagging[2] -= 0.05
     slipped[2] -= 0.015  # past pace_grasp (1 cm), within pace_lag (2 cm), and turned
     q = scene.task.layout.quat_index
     slipped[q : q + 4] = [np.cos(0.1), np.sin(0.1), 0.0, 0.0]  # 0.2 rad about x
-
-    def at(qo):
-        state[1 + scene.index.object_qpos] = qo
-        return state
 
     planner.pace(first - 0.1, first - 0.1, at(lagging))  # before the first contact: runs on
     assert planner.reference_time(first) == pytest.approx(first)
@@ -714,6 +709,17 @@ def test_pace_grasp_holds_the_grasp_for_a_lagging_object_on_a_budget_of_its_own(
         PredictiveSampling(pace_lag=0.02, pace_grasp=0.01)
     planner.close()
     alone.close()
+
+
+def assert_unpaced(base, paced) -> None:
+    """The paced trial's series (beside the record ``paced``) is the unpaced one's (``base``) bit for bit (the
+    plans' compute times aside), and logs the reference's time as the control time's."""
+    a, b = np.load(base.parent / "timeseries.npz"), np.load(paced.parent / "timeseries.npz")
+    assert set(b.files) - set(a.files) == {"reference_time"}
+    np.testing.assert_array_equal(b["reference_time"], b["time"])
+    for key in a.files:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
 
 
 def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_path, late_contact_reference):
@@ -745,12 +751,7 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
     turned = json.loads(run_job(overrides + turn, tmp_path / "turn").read_text())  # (turns while it waits)
     assert turned["status"] == "ok" and turned["config"]["planner"]["pace_turn"] == 1.0
     never = run_job(overrides + ["pacing=hold", "planner.pace_budget=0"], tmp_path / "never")
-    a, b = np.load(base.parent / "timeseries.npz"), np.load(never.parent / "timeseries.npz")
-    assert set(b.files) - set(a.files) == {"reference_time"}
-    np.testing.assert_array_equal(b["reference_time"], b["time"])
-    for key in a.files:
-        if key != "plan_seconds":
-            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    assert_unpaced(base, never)
 
 
 def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_files, scene_for):
@@ -765,12 +766,7 @@ def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_fil
     off, on = json.loads(base.read_text()), json.loads(paced.read_text())
     assert on["status"] == "ok" and on["config"]["planner"]["pace_turn"] == 1.0
     assert on["simulated_seconds"] == off["simulated_seconds"] and on["num_plans"] == off["num_plans"]
-    a, b = np.load(base.parent / "timeseries.npz"), np.load(paced.parent / "timeseries.npz")
-    assert set(b.files) - set(a.files) == {"reference_time"}
-    np.testing.assert_array_equal(b["reference_time"], b["time"])
-    for key in a.files:
-        if key != "plan_seconds":
-            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    assert_unpaced(base, paced)
 
 
 def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for):

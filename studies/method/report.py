@@ -1861,11 +1861,25 @@ def _paced_levers(study, chosen: pd.DataFrame, kind: str):
     return ok, bases, named, clean
 
 
-def _ended(r) -> str:
-    """How a trial (a record's row) ended: ``clean``, ``completed``, ``not completed`` or its status."""
+def _paced_trials(found, measure):
+    """Each trial of :func:`_paced_levers`'s ``found`` by lever, task and seed, with what ``measure`` reads
+    from its record's path (left out where it reads ``None``) and whether the method it is on finished
+    cleanly on that seed (``None``: no trial of it there)."""
+    ok, bases, _, clean = found
+    for r in ok.sort_values(["lever", "task", "seed"]).to_dict("records"):
+        waits = measure(r["record_path"])
+        if waits is not None:
+            yield r, waits, clean.get((bases[r["lever"]], r["task"], r["seed"]))
+
+
+def _ended(r, base: bool | None) -> str:
+    """Two table cells: how a trial (a record's row) ended (``clean``, ``completed``, ``not completed`` or
+    its status), and whether the method's trial on that seed finished cleanly (``base``)."""
     if r["status"] != "ok":
-        return str(r["status"])  # (diverged: counted, not completed)
-    return "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
+        mine = str(r["status"])  # (diverged: counted, not completed)
+    else:
+        mine = "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
+    return f"{mine} | {'—' if base is None else 'clean' if base else 'not clean'}"
 
 
 def paced_lift(study, chosen: pd.DataFrame) -> str:
@@ -1875,21 +1889,16 @@ def paced_lift(study, chosen: pd.DataFrame) -> str:
     found = _paced_levers(study, chosen, "hold")
     if found is None:
         return ""
-    ok, bases, named, clean = found
+    ok, _, named, _ = found
     rows, per = [], {}
-    for r in ok.sort_values(["lever", "task", "seed"]).to_dict("records"):
-        waits = grasp_waits(r["record_path"])
-        if waits is None:
-            continue
-        waited, began, at, stopped = waits
-        base = clean.get((bases[r["lever"]], r["task"], r["seed"]))
+    for r, (waited, began, at, stopped), base in _paced_trials(found, grasp_waits):
         cells = [
             ("—" if math.isnan(x) else f"{x:{f}}")
             for x, f in ((began, "+.1f"), (at, ".0f"), (stopped, ".0f"))
         ]
         rows.append(
             f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {waited:.1f} | {' | '.join(cells)} "
-            f"| {_ended(r)} | {'—' if base is None else 'clean' if base else 'not clean'} |"
+            f"| {_ended(r, base)} |"
         )
         got = per.setdefault((r["lever"], r["task"]), [0, 0, 0, 0, 0, 0])
         got[0] += waited > 0
@@ -1933,19 +1942,13 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
     found = _paced_levers(study, chosen, "release")
     if found is None:
         return ""
-    ok, bases, named, clean = found
+    _, _, named, _ = found
     rows, per = [], {}
-    for r in ok.sort_values(["lever", "task", "seed"]).to_dict("records"):
-        waits = paced_waits(r["record_path"])
-        if waits is None:
-            continue
-        waited, began, stopped, end = waits
-        base = clean.get((bases[r["lever"]], r["task"], r["seed"]))
+    for r, (waited, began, stopped, end), base in _paced_trials(found, paced_waits):
         deg = [("—" if math.isnan(x) else f"{x:.0f}") for x in (began, stopped, end)]
         rows.append(
             f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {waited:.1f} | {deg[0]} | {deg[1]} "
-            f"| {deg[2]} | {_ended(r)} "
-            f"| {'—' if base is None else 'clean' if base else 'not clean'} |"
+            f"| {deg[2]} | {_ended(r, base)} |"
         )
         if waited > 0:
             got = per.setdefault(r["lever"], [[], 0, 0, 0])
