@@ -1971,10 +1971,10 @@ def paced_release(study, chosen: pd.DataFrame) -> str:
         "Each lever trial whose release waits for the object (`pacing=release*`), from its time series: how "
         "long the reference's clock held (s), the object's tilt off the reference's (the spin about the "
         "vertical left out) where the wait began and where it ended (where the hand let go), and at the "
-        "trial's end (— where it never waited, and the trial is the method's config in all that acts); "
-        "beside it how the method's trial on that seed ended (its stand-ins counted in). The wait is decided "
-        "on the whole orientation error (`planner.pace_angle`, the spin about the vertical counted in), so "
-        "an object spun but upright waits too. "
+        "trial's end (— where it never waited: the method's config in all that acts, run its wait's budget "
+        "longer); beside it how the method's trial on that seed ended (its stand-ins counted in). The wait "
+        "is decided on the whole orientation error (`planner.pace_angle`, the spin about the vertical "
+        "counted in), so an object spun but upright waits too. "
         + "; ".join(said)
         + ".\n\n"
         + pipe_table(cols, "lllrrrrll", rows)
