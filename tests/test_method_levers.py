@@ -15,6 +15,7 @@ from contactmpc.control.grip import Grip, trapezoids
 from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.planners import CEM, PredictiveSampling
 from contactmpc.control.planners.base import improvement
+from contactmpc.control.release import ReleaseSchedule
 from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.trial import Trial
 from contactmpc.validate import ConfigError
@@ -609,16 +610,17 @@ def test_pacing_holds_the_reference_in_the_span_while_the_object_lags_up_to_its_
     off.close()
 
 
-def _paced_problem(scene_for):
-    """The apple's problem on a static reference expecting contact from 0.2 to 0.7 s of its demonstration, and
-    a function that puts an object configuration into a full-physics state of the planning model."""
+def _paced_problem(scene_for, release=None):
+    """The apple's problem on a static reference expecting contact from 0.2 to 0.7 s of its demonstration
+    (letting go on the ``release`` schedule), and a function that puts an object configuration into a
+    full-physics state of the planning model."""
     from contactmpc.control.problem import Problem
 
     scene = scene_for("apple")
     ref = static_reference(scene, duration=1.0, frames=11)
     ref.contact_active[:2] = False
     ref.contact_active[8:] = False
-    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2, release=release), TrackingCost(), 0.2, 12)
     state = np.zeros(mujoco.mj_stateSize(scene.planner_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
 
     def at(qo):
@@ -1059,6 +1061,29 @@ def test_pace_turn_turns_a_set_down_object_toward_the_references_orientation_whi
     planner.close()
     with pytest.raises(ConfigError, match="pace_turn.*pace_lag"):
         PredictiveSampling(pace_turn=1.0)
+
+
+def test_pace_turn_fade_winds_the_wrists_turn_back_after_the_release(scene_for):
+    """planner.pace_turn_fade: the release's control points keep the wrist's translation shift in full, and
+    its hinge shift (the turn) in full at the last expected contact, none from pace_turn_fade after it,
+    linearly between by each point's Greville abscissa; without it they keep both in full."""
+    _, problem, _ = _paced_problem(scene_for, ReleaseSchedule(reset=True))
+    shift = np.array([0.01, -0.02, 0.005, 0.3, -0.2, 0.1])
+    kwargs = dict(num_samples=2, horizon=0.2, nthread=1, pace_lag=0.05, pace_turn=1.0)
+    planners = [PredictiveSampling(**kwargs), PredictiveSampling(**kwargs, pace_turn_fade=0.2)]
+    for planner in planners:
+        planner.bind(problem)
+        planner._carry = shift.copy()  # (as the waits' turns left it)
+        reset = planner.release()
+        assert len(reset) >= 3
+    kept, faded = (planner.theta[reset, :6] - problem.release_theta[reset, :6] for planner in planners)
+    np.testing.assert_allclose(kept, np.tile(shift, (len(reset), 1)), atol=1e-12)
+    np.testing.assert_allclose(faded[:, :3], kept[:, :3], atol=1e-12)
+    late = (problem.spline.greville(reset) - problem.last_contact)[:, None]
+    np.testing.assert_allclose(faded[:, 3:], np.clip(1.0 - late / 0.2, 0.0, 1.0) * shift[3:], atol=1e-12)
+    assert (late >= 0.2).any() and not faded[late[:, 0] >= 0.2, 3:].any()  # wound back in full
+    for planner in planners:
+        planner.close()
 
 
 def test_a_carried_trial_runs_and_says_so(tmp_path, late_contact_reference):

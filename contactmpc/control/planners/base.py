@@ -189,6 +189,11 @@ class Planner:
             (set down), the wrist turns as ``carry_turn`` has it, at this gain, toward the orientation the
             reference has the object in there, the object kept where it is; in the same total as the
             carry's turn (``carry_turn_limit``). 0: the wait only holds the hand still.
+        pace_turn_fade: wind the wrist's hinge shift (the turn) back after the release (not the paper's; s):
+            the release's control points take it in full at the reference's last expected contact and none
+            of it from this many seconds after, linearly by each point's Greville abscissa, so the
+            retraction follows the reference's wrist angles again (a hinge shift kept on the reference's
+            retraction can bring the wrist's three hinges to their gimbal lock). ``None``: kept.
         carry_hold: control time (s) the object must have been carried (both above ``carry_lift``, without
             a break) before the carry shifts the wrist: the grasp has held, so the feedback does not pull
             on an object the hand is still lifting. 0: from the first plan it is carried.
@@ -278,6 +283,7 @@ class Planner:
         carry_turn_limit: Annotated[float, Ge(0)] = 0.5,
         carry_hold: Annotated[float, Ge(0)] = 0.0,
         pace_turn: Annotated[float, Ge(0)] = 0.0,
+        pace_turn_fade: Annotated[float, Gt(0)] | None = None,
         grip: Grip | None = None,
         switch_timestep: Annotated[float, Gt(0)] | None = None,
         switch_after: float | None = 2.0,
@@ -337,6 +343,7 @@ class Planner:
                 "planner.pace_turn turns the object while a paced reference waits: set planner.pace_lag"
             )
         self.pace_turn = float(pace_turn)
+        self.pace_turn_fade = None if pace_turn_fade is None else float(pace_turn_fade)
         self._carry_since: float | None = None  # control time the object has been carried since (carry_hold)
         self._carry = np.zeros(6)  # the wrist's shift so far (carry_gain): translation, hinge angles
         self._carry_data = None  # (carry_turn) scratch data for the wrist's Jacobian
@@ -1114,7 +1121,12 @@ class Planner:
         cols = slice(0, self.problem.scene.hand.num_root if wrist_only else None)
         target = self.problem.release_theta[reset, cols].copy()
         if self.carry_gain or self.pace_turn:  # the wrist keeps the shift that carried (or turned) the object
-            target[:, :6] += self._carry
+            if self.pace_turn_fade is None:
+                target[:, :6] += self._carry
+            else:  # (its turn wound back after the release)
+                fade = np.clip(1.0 - (spline.greville(reset) - at) / self.pace_turn_fade, 0.0, 1.0)
+                target[:, :3] += self._carry[:3]
+                target[:, 3:6] += fade[:, None] * self._carry[3:6]
         blend = self.problem.space.release.blend
         if blend > 0.0:  # from the committed points toward the nominal, by each point's Greville abscissa
             weight = np.clip((spline.greville(reset) - at) / blend, 0.0, 1.0)[:, None]
