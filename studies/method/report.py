@@ -1074,6 +1074,9 @@ LEVER_TEXT = {
     "planner.pace_lag=0.05": "`pacing=release` waits for the object's place only beyond 5 cm "
     "(`planner.pace_lag`; the group's 3 cm), the final tolerance, so it waits mostly for the object's "
     "orientation (`planner.pace_angle`, 20°)",
+    "planner.pace_turn_fade=1.0": "the wrist's turn (`planner.pace_turn`) wound back to the reference's "
+    "wrist angles over the 1 s after the last expected contact (`planner.pace_turn_fade`; `release_turn` "
+    "keeps it), so the retraction does not bring the wrist's hinges to their gimbal lock",
     "planner.reuse=4": "4 of the last plan's runners-up carried into the next (`planner.reuse`; "
     "`reuse=elites`'s 8), so a plan of 32 samples draws 28 fresh",
     "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
