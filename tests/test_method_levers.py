@@ -14,7 +14,7 @@ from contactmpc.control.cost import TrackingCost
 from contactmpc.control.grip import Grip, trapezoids
 from contactmpc.control.latency import ComputeLatency
 from contactmpc.control.planners import CEM, PredictiveSampling
-from contactmpc.control.planners.base import improvement
+from contactmpc.control.planners.base import expected_fingers, improvement
 from contactmpc.control.release import ReleaseSchedule
 from contactmpc.control.samplers import PCASplineSpace
 from contactmpc.trial import Trial
@@ -1483,12 +1483,69 @@ def test_reuse_until_carries_the_runners_up_before_then_whatever_the_fingers(mon
     problem.engine.close()
 
 
+def test_expected_fingers_counts_the_fingers_of_the_expected_links():
+    """expected_fingers: per step, the distinct ``<finger>`` of the links the reference expects on the object
+    (two links of one finger are one finger; the palm is none)."""
+    names = ["palm", "ff_tip", "ff_distal", "mf_tip", "th_tip"]
+    active = np.array(
+        [[0, 0, 0, 0, 0], [1, 0, 0, 0, 0], [0, 1, 1, 0, 0], [1, 1, 0, 1, 0], [0, 1, 1, 1, 1]], bool
+    )
+    np.testing.assert_array_equal(expected_fingers(active, names), [0, 0, 1, 2, 3])
+
+
+def test_reuse_grasp_carries_the_runners_up_only_from_the_references_grasp(scene_for):
+    """planner.reuse_grasp (reuse=elites_expected): the plans before the reference first expects that many
+    fingers on the object are reuse=0's bit for bit; from there on a plan takes the last plan's runners-up
+    in. A reference that never expects that many fingers carries them into no plan."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    names = scene.hand.link_names
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:] = False
+    ff = [i for i, n in enumerate(names) if n.startswith("ff_")]
+    grasp = [names.index(n) for n in ("ff_tip", "mf_tip", "th_tip")]
+    ref.contact_active[2:, ff] = True  # the index alone from frame 2, the grasp of three from frame 6
+    ref.contact_active[6:, grasp] = True
+    space = PCASplineSpace(0.2)
+
+    def pair(fingers):
+        problem = Problem.build(scene, ref, space, TrackingCost(), 0.2, 12)
+        on = PredictiveSampling(num_samples=8, horizon=0.2, reuse=3, reuse_grasp=fingers)
+        off = PredictiveSampling(num_samples=8, horizon=0.2)
+        on.bind(problem)
+        off.bind(problem)
+        return problem, on, off
+
+    problem, on, off = pair(3)
+    track = problem.track
+    counts = expected_fingers(track.contact_active, names)
+    assert counts.max() == 3 and (counts == 1).any()  # the index alone, then the grasp
+    grasp_at = float(np.flatnonzero(counts >= 3)[0] * track.dt)
+    assert on._reuse_from == pytest.approx(grasp_at) and grasp_at > problem.first_contact
+    state = np.zeros(mujoco.mj_stateSize(scene.planner_model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    state[1 : 1 + scene.planner_model.nq] = scene.planner_model.qpos0
+    seen_on, seen_off = _evaluated(on), _evaluated(off)
+    times = (0.0, problem.first_contact, grasp_at - 0.02, grasp_at, grasp_at + 0.05)
+    for k, t in enumerate(times):
+        on.plan(t, state, np.random.default_rng(k))
+        off.plan(t, state, np.random.default_rng(k))
+        np.testing.assert_array_equal(seen_on[k][0][:-3], seen_off[k][0][:-3])  # the fresh draws
+        carried = not np.array_equal(seen_on[k][0][-3:], seen_off[k][0][-3:])
+        assert carried == (t >= grasp_at), (k, t, grasp_at)
+    problem, never, other = pair(4)
+    assert never._reuse_from == float("inf") and not never.reusing(1e6)
+    for planner in (on, off, never, other):
+        planner.engine.close()
+
+
 def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
     """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit;
     reuse=elites_after_grasp composes (8, from 2 s after the first expected contact), and
     reuse=elites_grasped (8, while two fingers touch the object), reuse=elites_unless_alone (8, except
-    while one finger is alone on it) and reuse=elites_early_grasped (8, until 1 s before the first
-    expected contact, then while two fingers touch it) run."""
+    while one finger is alone on it), reuse=elites_early_grasped (8, until 1 s before the first
+    expected contact, then while two fingers touch it) and reuse=elites_expected (8, from the reference's
+    grasp of three fingers) run."""
     overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     record = json.loads(run_job(overrides + ["reuse=elites"], tmp_path / "on").read_text())
@@ -1504,3 +1561,5 @@ def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, lat
     assert alone["status"] == "ok" and alone["config"]["planner"]["reuse_alone"] is False
     early = json.loads(run_job(overrides + ["reuse=elites_early_grasped"], tmp_path / "early").read_text())
     assert early["status"] == "ok" and early["config"]["planner"]["reuse_until"] == -1.0
+    expected = json.loads(run_job(overrides + ["reuse=elites_expected"], tmp_path / "expected").read_text())
+    assert expected["status"] == "ok" and expected["config"]["planner"]["reuse_grasp"] == 3

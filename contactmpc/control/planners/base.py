@@ -244,6 +244,13 @@ class Planner:
             finger on the object (as counted for ``reuse_fingers``). False (not the paper's): such a plan
             draws every sample fresh, while a plan with no finger on the object (the approach) or with two
             or more keeps them; True (the default): no such gate.
+        reuse_grasp: with ``reuse``, carry the runners-up only into the plans from the reference's first
+            instant at which it expects at least this many fingers on the object (not the paper's; a
+            finger as counted for ``reuse_fingers``, from the reference's expected contacts), so the
+            approach and a reference's lone finger (the stapler's index, a second before the thumb comes)
+            draw every sample fresh, and a grasp the reference closes at once (the apple's, the bottle's)
+            keeps them from its start; 0 (the default): no such gate. A reference that never expects that
+            many: into no plan.
     """
 
     needs_rollouts = True
@@ -296,6 +303,7 @@ class Planner:
         reuse_fingers: Annotated[int, Ge(0)] = 0,
         reuse_alone: bool = True,
         reuse_until: float | None = None,
+        reuse_grasp: Annotated[int, Ge(0)] = 0,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -414,6 +422,8 @@ class Planner:
         self.reuse_fingers = int(reuse_fingers)
         self.reuse_alone = bool(reuse_alone)
         self.reuse_until = None if reuse_until is None else float(reuse_until)
+        self.reuse_grasp = int(reuse_grasp)
+        self._reuse_from: float | None = None  # (reuse_grasp) reference time of the reference's grasp
         self._reuse_gate = True  # (reuse_fingers, reuse_alone, reuse_until) whether this plan carries them in
         # (reuse) the last plan's runners-up: its window and their differences from what it committed
         self._kept: tuple[np.ndarray, np.ndarray] | None = None
@@ -508,6 +518,10 @@ class Planner:
             guided = self.guidance.bind(problem.scene, problem.track, self.iterations)
             if self.engine is None:
                 self.engine = RolloutEngine(guided, self.nthread, CONTROL_SPEC, self.guidance.off())
+        if self.reuse_grasp:
+            fingers = expected_fingers(problem.track.contact_active, problem.scene.hand.link_names)
+            grasped = np.flatnonzero(fingers >= self.reuse_grasp)
+            self._reuse_from = float(grasped[0] * problem.track.dt) if grasped.size else float("inf")
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
         if self.robust is not None:
@@ -984,13 +998,14 @@ class Planner:
         the palm, is no finger)."""
         scene = self.problem.scene
         touching = scene.link_contacts(self._forwarded(state))
-        names = scene.hand.link_names
-        return len({names[i].split("_", 1)[0] for i in np.flatnonzero(touching) if "_" in names[i]})
+        return len(fingers_of(scene.hand.link_names, np.flatnonzero(touching)))
 
     def reusing(self, t: float) -> bool:
         """Whether a plan at reference time ``t`` takes in the last plan's runners-up (``reuse``): from
         ``reuse_after`` after the first expected contact (always where it is ``None``, or without an
-        expected contact)."""
+        expected contact), and, with ``reuse_grasp``, from the reference's grasp of that many fingers on."""
+        if self.reuse_grasp and self._reuse_from is not None and t < self._reuse_from - 1e-9:
+            return False
         first = getattr(self.problem, "first_contact", None)
         if self.reuse_after is None or first is None:
             return True
@@ -1240,6 +1255,18 @@ class Planner:
         if self._noise_scale is not None:
             noise *= self._noise_scale
         return np.concatenate([nominal[None], nominal[None] + noise], axis=0)
+
+
+def fingers_of(names, links) -> set[str]:
+    """The fingers of the hand links ``links`` (indices into ``names``): the distinct ``<finger>`` of those
+    named ``<finger>_*`` (a link without one, the palm, is no finger)."""
+    return {names[i].split("_", 1)[0] for i in links if "_" in names[i]}
+
+
+def expected_fingers(contact_active: np.ndarray, names) -> np.ndarray:
+    """(N,) how many fingers (:func:`fingers_of`) the reference expects on the object at each step of its
+    expected contacts ``contact_active`` (N, L), over the hand links ``names``."""
+    return np.array([len(fingers_of(names, np.flatnonzero(row))) for row in np.asarray(contact_active, bool)])
 
 
 def improvement(before: float, after: float) -> float:
