@@ -1059,6 +1059,25 @@ def test_the_method_study_says_where_each_free_object_rests_against_the_final_to
     assert spec.settles(df.iloc[0:0]) == ""
 
 
+def test_the_method_study_says_when_each_reference_closes_its_grasp() -> None:
+    """reference_grasps: per task, the first time after the first expected contact with at least two, three
+    and four fingers expected on the object ("never" where it has not that many), and the time with one
+    finger alone (the grid's step per row); nothing without rows."""
+    import pandas as pd
+
+    fingers = {"paper_stapler": [1, 1, 2, 1, 3, 3, 4], "paper_apple": [1, 3, 3, 3, 3, 3, 3]}
+    df = pd.DataFrame(
+        [(task, round(0.1 * k, 6), n) for task, ns in fingers.items() for k, n in enumerate(ns)],
+        columns=["task", "time", "fingers"],
+    )
+    spec = Study("method").spec
+    text = spec.reference_grasps(df)
+    assert "| apple | +0.10 s | +0.10 s | never | 0.10 s |" in text
+    assert "| stapler | +0.20 s | +0.40 s | +0.60 s | 0.30 s |" in text
+    assert text.index("| apple |") < text.index("| stapler |")  # the paper's order
+    assert spec.reference_grasps(df.iloc[0:0]) == ""
+
+
 def test_the_method_study_sets_each_finer_planning_model_beside_the_method_on_the_same_seeds() -> None:
     """finer_models: per task, each ``+rollout=`` method on top of the method against the method's trials on
     the seeds it ran (a seed the method lacks is left out); nothing without such trials."""

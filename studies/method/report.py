@@ -2908,6 +2908,44 @@ def settles(rows: pd.DataFrame) -> str:
     return "".join(out)
 
 
+REFERENCE_GRASPS = "reference_grasp.csv"
+#: the fingers from which reuse=elites_expected (planner.reuse_grasp) carries the runners-up in
+REUSE_GRASP = OmegaConf.select(OmegaConf.load(CONF / "reuse" / "elites_expected.yaml"), "planner.reuse_grasp")
+
+
+def reference_grasps(rows: pd.DataFrame) -> str:
+    """When each task's reference closes its grasp (:data:`REFERENCE_GRASPS`'s rows: ``task``, ``time``,
+    ``fingers``; ``studies/method/reference_grasp.py``): per task, when after its first expected contact
+    the reference first expects two, three and four fingers on the object, and how long in the window it
+    expects one finger alone."""
+    if not len(rows):
+        return ""
+    window = float(rows["time"].max())
+    out = [
+        "From each paper task's reference, on the planning grid "
+        "(`python studies/method/reference_grasp.py`): when, after its first expected contact, it first "
+        "expects two, three and four fingers on the object (a finger: the links named `<finger>_*`; the "
+        "palm is none), and how long in the first "
+        f"{window:.0f} s it expects one finger alone. `reuse=elites_expected` (`planner.reuse_grasp` = "
+        f"{REUSE_GRASP}) carries the last plan's runners-up into the plans from the {REUSE_GRASP}-finger "
+        "instant on, and draws every sample fresh before it.\n\n"
+        "| task | 2 fingers | 3 fingers | 4 fingers | one finger alone |\n|---|--:|--:|--:|--:|\n"
+    ]
+    for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        mine = rows[rows["task"] == task].sort_values("time")
+        step = float(mine["time"].diff().median())
+
+        def first(n, mine=mine):
+            at = mine["time"][mine["fingers"] >= n]
+            return f"+{at.min():.2f} s" if len(at) else "never"
+
+        alone = step * int((mine["fingers"] == 1).sum())
+        out.append(
+            f"| {task.removeprefix('paper_')} | {first(2)} | {first(3)} | {first(4)} | {alone:.2f} s |\n"
+        )
+    return "".join(out)
+
+
 GRASP_CONTACTS = "grasp_contacts.csv"
 #: the index alone on the object for more than this share of the grasp's window: "mostly alone"
 ALONE = 0.5
@@ -3984,6 +4022,13 @@ def report(study) -> str:
             GRASP_CONTACTS,
             lambda rows: grasp_contacts(rows, study),
             "Not measured yet (`python studies/method/grasp_contacts.py`).\n",
+        )
+        + "\n## When the reference closes its grasp\n\n"
+        + from_figures(
+            study,
+            REFERENCE_GRASPS,
+            reference_grasps,
+            "Not measured yet (`python studies/method/reference_grasp.py`).\n",
         )
         + "\n## When the hand first touches the object\n\n"
         + from_figures(
