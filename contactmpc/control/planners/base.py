@@ -247,7 +247,7 @@ class Planner:
         reuse_grasp: with ``reuse``, carry the runners-up only into the plans from the reference's first
             instant at which it expects at least this many fingers on the object (not the paper's; a
             finger as counted for ``reuse_fingers``, from the reference's expected contacts), so the
-            approach and a reference's lone finger (the stapler's index, a second before the thumb comes)
+            approach and a reference's lone finger (the stapler's index, before the thumb comes)
             draw every sample fresh, and a grasp the reference closes at once (the apple's, the bottle's)
             keeps them from its start; 0 (the default): no such gate. A reference that never expects that
             many: into no plan.
