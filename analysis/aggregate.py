@@ -219,15 +219,35 @@ def sweep_root(record: Path, root: Path) -> Path:
     return root
 
 
+#: Rows already made, by the digest of their record's text (:func:`read_record`): a report reads each of
+#: its records many times, and making a row (the identity's defaults) costs far more than reading the file.
+_ROWS: dict[bytes, dict] = {}
+_ROWS_KEPT = 50_000
+
+
 def read_record(path: str | Path) -> dict:
     """One record as a flat row: scalar fields, the planner settings of ``config``, no nested values;
     and ``trial_id``, a digest of the trial's identity (see the module's docstring).
+
+    A record read before with the same text gives a copy of the row made then.
 
     Raises:
         OSError: the file cannot be read.
         ValueError: it is not JSON, not an object, or has no ``task``.
     """
-    data = json.loads(Path(path).read_text())
+    text = Path(path).read_bytes()
+    key = hashlib.blake2b(text, digest_size=20).digest()
+    if (row := _ROWS.get(key)) is None:
+        row = _row(text)
+        if len(_ROWS) >= _ROWS_KEPT:
+            _ROWS.clear()
+        _ROWS[key] = row
+    return {**row, _CONFIG: dict(row[_CONFIG])} if _CONFIG in row else dict(row)
+
+
+def _row(text: bytes) -> dict:
+    """:func:`read_record`'s row of a record's text."""
+    data = json.loads(text)
     if not isinstance(data, dict):
         raise ValueError(f"expected a JSON object, got {type(data).__name__}")
     if _missing(data.get("task")):

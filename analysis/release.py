@@ -88,14 +88,13 @@ def with_errors(df: pd.DataFrame) -> pd.DataFrame:
     kinds = {task: error_kind(df[df["task"] == task]) for task in df["task"].unique()}
 
     def values(suffix: str) -> list[float]:
-        cols = {
-            t: (f"{ERRORS[k]}_{suffix}" if suffix != "final" else f"final_{ERRORS[k]}")
-            for t, k in kinds.items()
-        }
-        return [
-            pd.to_numeric(pd.Series([r.get(cols[t], math.nan)]), errors="coerce").iloc[0]
-            for t, r in zip(df["task"], df.to_dict("records"), strict=True)
-        ]
+        out = np.full(len(df), math.nan)
+        tasks = df["task"].to_numpy()
+        for t, k in kinds.items():
+            col = f"{ERRORS[k]}_{suffix}" if suffix != "final" else f"final_{ERRORS[k]}"
+            if col in df and (rows := np.flatnonzero(tasks == t)).size:
+                out[rows] = pd.to_numeric(df[col].iloc[rows], errors="coerce").to_numpy(dtype=float)
+        return out.tolist()
 
     out = df.assign(_span=values("span_mean"), _after=values("after_mean"), _final=values("final"))
     out.attrs["error_kinds"] = kinds

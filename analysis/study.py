@@ -26,6 +26,7 @@ the "results at a glance" table in ``README.md`` (between ``<!-- glance:begin --
 from __future__ import annotations
 
 import argparse
+import hashlib
 import importlib.util
 import json
 import sys
@@ -76,6 +77,7 @@ class Study:
         if not (self.dir / "report.py").is_file():
             raise FileNotFoundError(f"no study {name!r}: {self.dir / 'report.py'} does not exist")
         self.drawing = drawing
+        self._tables: dict[tuple, pd.DataFrame] = {}  # records(): the tables made, by folders and files
 
     @cached_property
     def spec(self) -> ModuleType:
@@ -120,7 +122,17 @@ class Study:
         dirs = self.record_dirs(*extra, own=own)
         if not any(d.rglob(RECORD_NAME) for d in dirs):
             return pd.DataFrame(columns=["task", "variant", "fidelity", "status", "ttf", "git_revision"])
-        return _relabel(_with_fidelity(load_records(*[d for d in dirs if any(d.rglob(RECORD_NAME))])))
+        dirs = [d for d in dirs if any(d.rglob(RECORD_NAME))]
+        # a report asks for the same folders many times: tabled once per study while their files are the
+        # same (paths, modification times and texts), each caller given its own copy
+        digest = hashlib.blake2b(digest_size=20)
+        for path in sorted(p for d in dirs for p in d.rglob(RECORD_NAME) if p.is_file()):
+            digest.update(f"{path}\0{path.stat().st_mtime_ns}\0".encode())
+            digest.update(path.read_bytes())
+        key = (tuple(dirs), digest.digest())
+        if key not in self._tables:
+            self._tables[key] = _relabel(_with_fidelity(load_records(*dirs)))
+        return self._tables[key].copy()
 
     def figure(self, name: str) -> Path:
         """The path of figure ``name`` (``figures/`` created)."""

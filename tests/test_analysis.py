@@ -200,6 +200,20 @@ def test_overlapping_dirs_and_sweep_root(sweep):
     assert set(df["sweep_dir"]) == {str(sweep.resolve())}
 
 
+def test_a_record_read_again_is_a_copy_of_its_texts_row(tmp_path):
+    """:func:`read_record` makes a text's row once: a caller's change to it stays its own, and a record
+    rewritten in place is read anew."""
+    path = tmp_path / "trial.json"
+    write_json(path, make_record("apple", "full", 0, 1.0))
+    first = aggregate.read_record(path)
+    first["ttf"] = -1.0
+    first["_config"]["seed"] = -1
+    again = aggregate.read_record(path)
+    assert again["ttf"] == 1.0 and again["_config"]["seed"] == 0 and again["trial_id"] == first["trial_id"]
+    write_json(path, make_record("apple", "full", 0, 0.5))
+    assert aggregate.read_record(path)["ttf"] == 0.5
+
+
 def test_missing_directory(tmp_path):
     with pytest.raises(FileNotFoundError):
         load_records(tmp_path / "nope")

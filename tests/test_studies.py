@@ -11,6 +11,7 @@ import pytest
 from analysis import study as study_mod
 from analysis.study import README, STUDIES, Study, glance_table, index, names, with_glance
 from analysis.summarize import Fmt, Stat, markdown, summarize
+from contactmpc.records import write_json
 
 NAMES = names()
 
@@ -122,6 +123,22 @@ def test_provenance_warns_when_records_span_revisions(tmp_path) -> None:
     two = one.assign(git_revision=["a" * 40, "b" * 40])
     assert "**The records span 2 code revisions**" in s.provenance(two)
     assert s.records().empty and s.render().startswith("# t\n")
+
+
+def test_a_study_tables_its_records_anew_when_they_change(tmp_path) -> None:
+    """:meth:`Study.records` is the table of the files there now, and each caller's own copy."""
+    (tmp_path / "s" / "records" / "a").mkdir(parents=True)
+    report = 'TITLE = "t"\nEXPERIMENTS = []\ndef report(study):\n  return ""\n'
+    (tmp_path / "s" / "report.py").write_text(report)
+    record = {"task": "apple", "seed": 0, "status": "ok", "ttf": 1.0, "variant": "full"}
+    write_json(tmp_path / "s" / "records" / "a" / "trial.json", record)
+    s = Study("s", tmp_path)
+    first = s.records()
+    first.loc[:, "ttf"] = -1.0
+    assert s.records()["ttf"].tolist() == [1.0]
+    write_json(tmp_path / "s" / "records" / "a" / "trial.json", {**record, "ttf": 0.5})
+    write_json(tmp_path / "s" / "records" / "b" / "trial.json", {**record, "seed": 1})
+    assert sorted(s.records()["ttf"].tolist()) == [0.5, 1.0]
 
 
 def test_glance_keeps_the_best_row_per_task(tmp_path) -> None:
