@@ -21,6 +21,7 @@ Run ``pytest tests/test_agreement.py -s`` to see the gaps.
 from __future__ import annotations
 
 import copy
+import functools
 import os
 
 import numpy as np
@@ -86,10 +87,11 @@ def _setup(task: str) -> tuple[Scene, Trial]:
     return scene, trial
 
 
+@functools.cache
 def _contact_states(task: str) -> tuple[Scene, list[tuple[float, np.ndarray, np.ndarray]]]:
     """The scene of ``task`` and its reference replay's moving contact states, each with the reference
     joint targets over the next ``WINDOW`` planning steps: ``(t, state, controls)`` (a paper task skips
-    without its data)."""
+    without its data). Replayed once per task for the module's tests (they only read them)."""
     if task in PAPER and not os.environ.get("CONTACTMPC_PAPER_DATA"):
         pytest.skip("CONTACTMPC_PAPER_DATA is not set (the authors' mjpc/tasks directory)")
     scene, trial = _setup(task)
