@@ -7,7 +7,7 @@ clearance_grasp``), ``release`` (``none | reset | open | scheduled | flat | back
 ``compensation`` (``none | predict``), ``effort`` (``uniform | acquire | acquire_half | acquire_short``),
 ``place`` (``none | wrist``), ``pacing`` (``none | hold | release``), ``carry`` (``none | wrist | pose |
 held``), ``grip`` (``none | squeeze | carried | touched``), ``retarget`` (``none | wrist``), ``rollout``
-(``paper | fine``) and ``reuse`` (``none | elites | elites_after_grasp | elites_grasped``).
+(``paper | fine``) and ``reuse`` (``none | elites | elites_expected | elites_grasped | ...``).
 Records made before the groups existed name the combination by one variant label (``variant:
 release_flat``); records made before the release schedule was one object store its options as flat sampler
 keys (``sampler.release_pause``); records made before a group existed read as its default.
@@ -54,6 +54,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "grasp_held_eased": "full",
     "grasp_held_eased_refined": "full",
     "grasp_held_retract": "full",
+    "grasp_held_expected": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -121,6 +122,13 @@ NAMED_METHODS["grasp_held_retract"] = {
     **NAMED_METHODS["grasp_held_eased"],
     "variant": "grasp_held_retract",
     "release": "retract_articulated",
+}
+
+# grasp_held_retract keeping the last plan's runners-up once the reference expects a grasp
+NAMED_METHODS["grasp_held_expected"] = {
+    **NAMED_METHODS["grasp_held_retract"],
+    "variant": "grasp_held_expected",
+    "reuse": "elites_expected",
 }
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}

@@ -65,6 +65,7 @@ def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_tar
     assert spec.variants() == list(spec.ORDER)
     after = spec.ORDER[spec.ORDER.index(spec.METHOD) + 1 :]
     assert after == (
+        "grasp_held_retract",
         "grasp_held_eased",
         "grasp_release_ahead_acquire",
         "grasp_release_ahead",
@@ -243,7 +244,7 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
     for seed, clean in ((0, True), (1, False)):  # a lever on the method in the 2-thread loop
         planner = {"latency_per_plan": True, "latency_model": {"threads": 2}}
         write("loop", f"lever{seed}", {"task": "paper_stapler", "seed": seed, "variant": spec.METHOD,
-              "reuse": "elites", "completed": True, "finished_cleanly": clean, "cpu": "A",
+              "grip": "squeeze", "completed": True, "finished_cleanly": clean, "cpu": "A",
               "cpu_seconds": 300.0, "plan_latencies": {"0.593": 5, "0.148": 60},
               "config": {"planner": planner}})  # fmt: skip
     for seed, done, held in ((0, True, None), (1, False, None), (2, True, 0.17)):
@@ -274,9 +275,9 @@ def test_the_method_studys_machine_section_sets_per_plan_trials_beside_the_fixed
         in text
     )
     assert "The trials ran on A (6)." in text
-    lever = "| stapler | `reuse=elites` | 2 | 593 / 148 | 0 and 1 | 2 of 2 | 1 | 1 of 2 / 1 | "
+    lever = "| stapler | `grip=squeeze` | 2 | 593 / 148 | 0 and 1 | 2 of 2 | 1 | 1 of 2 / 1 | "
     assert lever in text and text.split(lever)[1].split("\n")[0].endswith("| seed 0 | seed 1 | 300 |")
-    assert f"`{spec.METHOD}+reuse=elites`" not in text  # not a row of the method's own table
+    assert f"`{spec.METHOD}+grip=squeeze`" not in text  # not a row of the method's own table
     assert "No such trial" in spec.loop_section(SimpleNamespace(dir=tmp_path / "none", draw=None), base)
 
 
@@ -682,6 +683,30 @@ def test_the_method_study_lets_the_trials_of_an_equivalent_config_stand_in_for_t
     assert (
         "apple: seeds 1 and 2 by `grasp_held_eased`" in note and "(apple 0)" in note and "on 1 of 1" in note
     )
+
+
+def test_a_method_a_lever_stands_in_for_is_built_on_the_variant_it_names(monkeypatch, tmp_path) -> None:
+    """grasp_held_expected's trials are the lever reuse=elites_expected on grasp_held_retract's: the method
+    chain and the free objects' base follow the lever's variant, and the lever's trials, named
+    grasp_held_expected by the label map, are on grasp_held_retract in the levers' table."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    lever = "reuse=elites_expected variant=grasp_held_retract"
+    assert spec.METHOD == "grasp_held_expected"
+    assert spec.EQUIVALENT[spec.METHOD] == {"free": ("levers", lever), "joints": ("levers", lever)}
+    assert spec.built_chain() == ["grasp_held_expected", "grasp_held_retract", "grasp_held_eased"]
+    assert spec.free_base() == "grasp_held_eased" == spec.free_base("grasp_held_eased")
+    folders = [f"experiment=method,{lever.replace(' ', ',')},seed=0,task=paper_apple",
+               "carry=held,experiment=method,seed=0,task=paper_apple"]  # fmt: skip
+    df = pd.DataFrame({"task": "apple", "seed": 0, "counted": True,
+                       "variant": ["grasp_held_expected", "grasp_held_eased+carry=held"],
+                       "record_path": [str(tmp_path / f / "trial.json") for f in folders]})  # fmt: skip
+    monkeypatch.setattr(spec, "frame", lambda study, folder=None: df)
+    ok = spec.lever_frame(None)
+    assert ok["lever"].tolist() == [lever, "carry=held"]
+    assert ok["on"].tolist() == ["grasp_held_retract", "grasp_held_eased"]
+    assert spec.lever_names(ok)[0] == {lever: "grasp_held_retract", "carry=held": "grasp_held_eased"}
 
 
 def test_the_method_study_counts_where_each_option_rescues_the_method_and_where_it_costs_it(

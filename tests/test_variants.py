@@ -125,8 +125,8 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
     # (wrist, wrist_clearance) or that are the project's methods (grasp_release and those that add groups
     # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased, grasp_held_eased_refined,
-    # grasp_held_retract)
-    assert len(VARIANTS) <= 13
+    # grasp_held_retract, grasp_held_expected)
+    assert len(VARIANTS) <= 14
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -285,17 +285,19 @@ def test_the_release_node_has_a_schema():
 @pytest.mark.parametrize("task", ["paper_apple", "paper_bottle", "paper_doorknob", "paper_stapler"])
 def test_a_paper_task_chooses_the_project_s_method_and_the_command_line_wins(task):
     choices = compose_config([f"task={task}"], return_hydra_config=True).hydra.runtime.choices
-    assert (choices.variant, choices.preset) == ("grasp_held_retract", "paper_32samples_calibrated")
-    assert (choices.wrist, choices.shaping, choices.release) == (
+    assert (choices.variant, choices.preset) == ("grasp_held_expected", "paper_32samples_calibrated")
+    assert (choices.wrist, choices.shaping, choices.release, choices.reuse) == (
         "acquire",
         "clearance",
         "retract_articulated",
+        "elites_expected",
     )
     assert (choices.compensation, choices.effort, choices.carry) == ("predict", "acquire", "held")
     cfg = compose_config([f"task={task}", "variant=full", "preset=paper"], return_hydra_config=True)
     assert (cfg.hydra.runtime.choices.variant, cfg.hydra.runtime.choices.preset) == ("full", "paper")
     assert (cfg.hydra.runtime.choices.shaping, cfg.hydra.runtime.choices.release) == ("none", "none")
     assert (cfg.hydra.runtime.choices.compensation, cfg.hydra.runtime.choices.effort) == ("none", "uniform")
+    assert cfg.hydra.runtime.choices.reuse == "none" and cfg.planner.reuse == 0
     assert cfg.planner.num_samples == 128
 
 
@@ -391,7 +393,6 @@ def test_grasp_held_retract_is_the_method_letting_go_of_an_articulation_by_retra
     differs only in the release schedule, which adds the hold and the repeated retraction for an object on
     joints (sampler.release.articulated_only); the method study's records of the latter are named by it."""
     named, choices = _paper_apple("variant=grasp_held_retract")
-    assert _paper_apple()[0] == named  # the paper tasks' default
     groups, group_choices = _paper_apple("variant=grasp_held_eased", "release=retract_articulated")
     assert named == groups and choices == group_choices
     eased, _ = _paper_apple("variant=grasp_held_eased")
@@ -401,6 +402,22 @@ def test_grasp_held_retract_is_the_method_letting_go_of_an_articulation_by_retra
     assert added == {"hold": 2.0, "retract": 0.02, "retract_again": True, "articulated_only": True}
     assert labels.method_name({"variant": "grasp_held_retract", **choices}) == "grasp_held_retract"
     assert labels.method_name({"variant": "grasp_held_eased", **choices}) == "grasp_held_retract"
+
+
+def test_grasp_held_expected_is_the_method_keeping_its_runners_up_once_the_reference_expects_a_grasp():
+    """variant=grasp_held_expected, the paper tasks' default, composes grasp_held_retract with
+    reuse=elites_expected: its planner carries 8 runners-up from the reference's 3-finger instant, and
+    nothing else differs; the method study's lever trials of the latter are named by it."""
+    named, choices = _paper_apple("variant=grasp_held_expected")
+    assert _paper_apple()[0] == named  # the paper tasks' default
+    groups, group_choices = _paper_apple("variant=grasp_held_retract", "reuse=elites_expected")
+    assert named == groups and choices == group_choices
+    retract, _ = _paper_apple("variant=grasp_held_retract")
+    planner, before = named.pop("planner"), retract.pop("planner")
+    assert named == retract  # the planner's reuse is all that differs
+    assert {k: v for k, v in planner.items() if before.get(k) != v} == {"reuse": 8, "reuse_grasp": 3}
+    assert labels.method_name({"variant": "grasp_held_expected", **choices}) == "grasp_held_expected"
+    assert labels.method_name({"variant": "grasp_held_retract", **choices}) == "grasp_held_expected"
 
 
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():

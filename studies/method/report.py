@@ -78,6 +78,7 @@ ORDER = (
     "grasp_held_eased+rollout=fine_budget",
     "grasp_held_eased+rollout=fine",
     "grasp_held_eased+retarget=wrist",
+    "grasp_held_expected",
     "grasp_held_retract",
     "grasp_held_eased",
     "grasp_release_ahead_acquire",
@@ -225,11 +226,17 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
 #: release schedule, whose additions act on an object on joints alone (``sampler.release.articulated_only``;
 #: ``tests/test_release.py`` checks the planner bit for bit on a free object): on a free object it is
 #: ``grasp_held_eased``, on the doorknob ``grasp_held_eased`` with the lever below.
+#: ``grasp_held_expected`` is ``grasp_held_retract`` with ``reuse=elites_expected``: on every object, that
+#: lever's trials.
 EQUIVALENT = {
+    "grasp_held_expected": {
+        "free": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
+        "joints": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
+    },
     "grasp_held_retract": {
         "free": ("records", "grasp_held_eased"),
         "joints": ("levers", "release=retract sampler.release.retract_again=True"),
-    }
+    },
 }
 
 
@@ -241,11 +248,32 @@ def own_trials(df: pd.DataFrame) -> pd.DataFrame:
     return mine[mine["stand_in"].isna()] if "stand_in" in mine else mine
 
 
-def free_base() -> str:
-    """The method whose trials are :data:`METHOD`'s on a free object (:data:`EQUIVALENT`; itself where
-    none), on which the levers of the free objects are built."""
-    folder, name = EQUIVALENT.get(METHOD, {}).get("free", ("records", METHOD))
-    return name if folder == "records" else METHOD
+def free_base(method: str | None = None) -> str:
+    """The method whose trials are ``method``'s (default :data:`METHOD`) on a free object
+    (:data:`EQUIVALENT`; itself where none), on which the levers of the free objects are built: where a
+    lever stands in for it, that of the variant the lever runs on (``grasp_held_expected``: the lever
+    ``reuse=elites_expected variant=grasp_held_retract``, so ``grasp_held_retract``'s,
+    ``grasp_held_eased``)."""
+    method = method or METHOD
+    folder, name = EQUIVALENT.get(method, {}).get("free", ("records", method))
+    if folder == "records":
+        return name
+    on = dict(p.split("=", 1) for p in name.split()).get("variant")
+    return free_base(on) if on and on != method else method
+
+
+def built_chain() -> list[str]:
+    """:data:`METHOD` and the methods it is built on through :data:`EQUIVALENT`'s levers (the variant each
+    lever names), down to :func:`free_base`: ``grasp_held_expected``, ``grasp_held_retract``,
+    ``grasp_held_eased``."""
+    out = [METHOD]
+    while (folder_name := EQUIVALENT.get(out[-1], {}).get("free")) is not None:
+        folder, name = folder_name
+        on = name if folder == "records" else dict(p.split("=", 1) for p in name.split()).get("variant")
+        if not on or on in out:
+            break
+        out.append(on)
+    return out
 
 
 def object_kind(df: pd.DataFrame, task: str) -> str | None:
@@ -277,7 +305,7 @@ def with_equivalents(study, df: pd.DataFrame, seeds=None) -> pd.DataFrame:
             if not len(source):
                 continue
             found = source[(source["task"] == task) & (source[column] == name)]
-            found = found[[bool(seeds(s)) for s in found["seed"]]]
+            found = found[np.array([bool(seeds(s)) for s in found["seed"]], dtype=bool)]
             mine = [(task, s) in have for s in found["seed"]]
             for path, seed in zip(found.loc[mine, "record_path"], found.loc[mine, "seed"], strict=True):
                 own = df.loc[(df["variant"] == method) & (df["task"] == task) & (df["seed"] == seed)]
@@ -1077,6 +1105,9 @@ LEVER_TEXT = {
     "planner.pace_turn_fade=1.0": "the wrist's turn (`planner.pace_turn`) wound back to the reference's "
     "wrist angles over the 1 s after the last expected contact (`planner.pace_turn_fade`; `release_turn` "
     "keeps it), so the retraction does not bring the wrist's hinges to their gimbal lock",
+    "planner.reuse_grasp=4": "the runners-up carried only from the reference's first instant with four "
+    "fingers on the object (`planner.reuse_grasp`; `reuse=elites_expected`'s three): later where the "
+    "reference closes its grasp finger by finger (*When the reference closes its grasp*)",
     "planner.reuse=4": "4 of the last plan's runners-up carried into the next (`planner.reuse`; "
     "`reuse=elites`'s 8), so a plan of 32 samples draws 28 fresh",
     "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
@@ -1087,11 +1118,13 @@ LEVER_TEXT = {
 
 def built_on(df: pd.DataFrame) -> str:
     """The method the trials ``df`` ran on top of: of the methods their names start with
-    (``grasp_release_ahead_acquire`` of ``grasp_release_ahead_acquire+carry=held``), the most common
+    (``grasp_release_ahead_acquire`` of ``grasp_release_ahead_acquire+carry=held``; a lever's ``on``, where
+    ``df`` has it: :func:`lever_frame`), the most common
     (ties: the first in :data:`ORDER`); :data:`METHOD` without any trial."""
     if not len(df) or "variant" not in df:
         return METHOD
-    counts = df["variant"].dropna().astype(str).str.split("+").str[0].value_counts()
+    names = df["on"] if "on" in df else df["variant"].dropna().astype(str).str.split("+").str[0]
+    counts = names.value_counts()
     rank = {m: i for i, m in enumerate(ORDER)}
     return min(counts.index, key=lambda m: (-counts[m], rank.get(m, len(rank)), m)) if len(counts) else METHOD
 
@@ -1105,13 +1138,19 @@ def lever_of(record_path) -> str:
 
 def lever_frame(study) -> pd.DataFrame:
     """The lever trials that count (:data:`LEVERS`, on the planned tasks, any seed), each with its
-    ``lever`` (:func:`lever_of`) and ``seeds`` (``"sweep"`` on the sweep's seeds, else ``"held out"``)."""
+    ``lever`` (:func:`lever_of`), ``seeds`` (``"sweep"`` on the sweep's seeds, else ``"held out"``) and
+    ``on``, the method it ran on top of (:func:`built_on`)."""
     df = frame(study, LEVERS)
     ok = df[df["counted"] & df["task"].isin(plan()[0])] if len(df) else df
     if not len(ok):
-        return ok.assign(lever=[], seeds=[])
+        return ok.assign(lever=[], seeds=[], on=[])
     half = np.where(ok["seed"].isin(plan()[1]), "sweep", "held out")
-    return ok.assign(lever=[lever_of(p) for p in ok["record_path"]], seeds=half)
+    levers = [lever_of(p) for p in ok["record_path"]]
+    # the method it is on: the variant its overrides name, else the one its name starts with (a lever that
+    # makes a named method, reuse=elites_expected variant=grasp_held_retract, is on the variant it names)
+    named = [dict(p.split("=", 1) for p in lever.split()).get("variant") for lever in levers]
+    prefix = ok["variant"].astype(str).str.split("+").str[0]
+    return ok.assign(lever=levers, seeds=half, on=[n or p for n, p in zip(named, prefix, strict=True)])
 
 
 def _lever_text(lever: str) -> str:
@@ -2120,12 +2159,12 @@ def _still_weight(lever: str) -> float | None:
     return float(weights[0]) if weights else 100.0
 
 
-def _screen_name(lever: str) -> str:
-    """How the screen's table names ``lever``: the method, ``release=still`` at its rest weight, or the
-    lever's overrides."""
+def _screen_name(lever: str, method: str = METHOD) -> str:
+    """How the screen's table names ``lever``: the method its trials without a lever ran (``method``),
+    ``release=still`` at its rest weight, or the lever's overrides."""
     weight = _still_weight(lever)
     if not lever:
-        return f"`{METHOD}`"
+        return f"`{method}`"
     return f"`release=still`, {weight:g} s^2" if weight is not None else f"`{lever}`"
 
 
@@ -2178,10 +2217,11 @@ def release_screen(study) -> str:
         processor=[online_cpu(json.loads(Path(p).read_text())) for p in ok["record_path"]],
     )
     base = ok[ok["lever"].eq("")].set_index("seed")
+    method = built_on(base)  # the method of their time, the paper doorknob's default when they ran
     rows, lines, texts = [], [], []
     for lever in sorted(set(ok["lever"]), key=_screen_order):
         g = ok[ok["lever"].eq(lever)]
-        name = _screen_name(lever)
+        name = _screen_name(lever, method)
         final = 1e3 * g["_final"]
         rows.append(
             f"| {name} | {seeds(g['seed'])} | {of(int(g['completed'].sum()), len(g))} "
@@ -2192,7 +2232,7 @@ def release_screen(study) -> str:
             same = base.loc[base.index.intersection(g["seed"])]
             lines += [
                 f"- {name}, " + line[2:]
-                for line in _against(g[g["seed"].isin(same.index)], same, "with it", f"`{METHOD}`")
+                for line in _against(g[g["seed"].isin(same.index)], same, "with it", f"`{method}`")
                 if "finished cleanly" in line
             ]
         if lever and (_still_weight(lever) is None or lever == "release=still"):
@@ -2219,9 +2259,8 @@ def release_screen(study) -> str:
         best = max(shares, key=lambda lever: (shares[lever][0], shares[lever][2]))
         share, k, n = shares[best]
         out += (
-            f"\nThe screen's most clean finishes, as a share of its seeds: {_screen_name(best)}, {of(k, n)}"
-            + ("" if share >= 0.8 else "; none reaches the target's share, 8 of 10")
-            + ".\n"
+            f"\nThe screen's most clean finishes, as a share of its seeds: {_screen_name(best, method)}, "
+            f"{of(k, n)}" + ("" if share >= 0.8 else "; none reaches the target's share, 8 of 10") + ".\n"
         )
     return out + ("\nThe levers screened:\n\n" + "\n".join(texts) + "\n" if texts else "")
 
@@ -2672,7 +2711,7 @@ def lift_replays(rows: pd.DataFrame) -> str:
         return ""
     before, after = rows["before"].iloc[0], rows["after"].iloc[0]
     out = [
-        f"Each of `{METHOD}`'s trials on the free objects replayed open-loop "
+        f"Each of `{free_base()}`'s trials on the free objects replayed open-loop "
         f"(`python studies/method/lift_replay.py`): from its recorded configuration {before:g} s before its "
         "contact span starts (the hand not yet on the object; velocities zeroed, so a replay is near its "
         f"trial, not it), its recorded hand targets to {after:g} s after (past the reference's lift), in the "
@@ -3843,8 +3882,8 @@ def levers_target(study) -> str:
 
 def rescue_rows(study, df: pd.DataFrame) -> list[tuple[str, dict[str, tuple[int, int, int, int]]]]:
     """Per option against :data:`METHOD` seed by seed (the sweep's seeds and the held-out ones, its
-    stand-ins counted in): each other method of the sweep and each lever run on :data:`METHOD` or on
-    :func:`free_base` (the method on the free objects), per task ``(rescued, unclean, lost, clean)``: of
+    stand-ins counted in): each other method of the sweep and each lever run on :data:`METHOD` or a method
+    it is built on (:func:`built_chain`), per task ``(rescued, unclean, lost, clean)``: of
     the method's trials that did not finish cleanly on the seeds the option ran, how many the option
     finishes cleanly, and of those that did, how many it does not."""
     held, _, _ = heldout_frame(study, df)
@@ -3856,7 +3895,7 @@ def rescue_rows(study, df: pd.DataFrame) -> list[tuple[str, dict[str, tuple[int,
         if method in (METHOD, free_base()) or not len(every):
             continue
         g = every[every["variant"] == method]
-        if "stand_in" in g:
+        if "stand_in" in g and method not in EQUIVALENT:  # a method with stand-ins has its trials in them
             g = g[g["stand_in"].isna()]
         if len(g):
             options[method] = g
@@ -3864,7 +3903,7 @@ def rescue_rows(study, df: pd.DataFrame) -> list[tuple[str, dict[str, tuple[int,
     equivalent = {name for folder, name in EQUIVALENT.get(METHOD, {}).values() if folder == LEVERS}
     for lever, g in levers.groupby("lever", sort=True) if len(levers) else ():
         on = built_on(g)
-        if on in (METHOD, free_base()) and lever not in equivalent:
+        if on in built_chain() and lever not in equivalent:
             options[lever if on == METHOD else f"{lever}` on `{on}"] = g
     rows = []
     for name, g in options.items():
