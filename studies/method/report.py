@@ -339,13 +339,17 @@ def equivalents_note(df: pd.DataFrame) -> str:
         done = [c for c in checks if c[0] == method]
         agree = sum(c[4] for c in done)
         seen = ", ".join(f"{task} {seed}" for _, task, seed, _, _ in done)
+        free, joints = EQUIVALENT[method]["free"][1], EQUIVALENT[method]["joints"][1]
+        why = (
+            f"its config is the lever `{free}`'s (`tests/test_variants.py` checks the two compose the same)"
+            if free == joints
+            else f"on a free object its release is `{free}`'s (`sampler.release.articulated_only`: the hold "
+            "and the retraction act only on an object on joints; `tests/test_release.py` checks the planner "
+            f"bit for bit), and on an object on joints it is that method with the lever `{joints}`"
+        )
         out.append(
             f"`{method}` is run as its own trials where it has them; elsewhere a trial of the same config in "
-            f"all that acts on that task stands in for it ({by}): on a free object its release is "
-            f"`{EQUIVALENT[method]['free'][1]}`'s (`sampler.release.articulated_only`: the hold and the "
-            "retraction act only on an object on joints; `tests/test_release.py` checks the planner bit for "
-            "bit), and on an object on joints it is that method with the lever "
-            f"`{EQUIVALENT[method]['joints'][1]}`. "
+            f"all that acts on that task stands in for it ({by}): {why}. "
             + (
                 f"Where it ran itself on a seed a stand-in also ran ({seen}), the two records agree "
                 f"(completion, finishing cleanly, TTF and the final errors) on {of(agree, len(done))}."
