@@ -248,32 +248,31 @@ def own_trials(df: pd.DataFrame) -> pd.DataFrame:
     return mine[mine["stand_in"].isna()] if "stand_in" in mine else mine
 
 
-def free_base(method: str | None = None) -> str:
-    """The method whose trials are ``method``'s (default :data:`METHOD`) on a free object
-    (:data:`EQUIVALENT`; itself where none), on which the levers of the free objects are built: where a
-    lever stands in for it, that of the variant the lever runs on (``grasp_held_expected``: the lever
-    ``reuse=elites_expected variant=grasp_held_retract``, so ``grasp_held_retract``'s,
-    ``grasp_held_eased``)."""
-    method = method or METHOD
-    folder, name = EQUIVALENT.get(method, {}).get("free", ("records", method))
-    if folder == "records":
-        return name
-    on = dict(p.split("=", 1) for p in name.split()).get("variant")
-    return free_base(on) if on and on != method else method
+def lever_variant(lever: str) -> str | None:
+    """The variant a lever's overrides name (``variant=grasp_held_retract`` of ``reuse=elites_expected
+    variant=grasp_held_retract``); ``None`` where they name none."""
+    return dict(part.split("=", 1) for part in lever.split()).get("variant")
 
 
-def built_chain() -> list[str]:
-    """:data:`METHOD` and the methods it is built on through :data:`EQUIVALENT`'s levers (the variant each
-    lever names), down to :func:`free_base`: ``grasp_held_expected``, ``grasp_held_retract``,
-    ``grasp_held_eased``."""
-    out = [METHOD]
-    while (folder_name := EQUIVALENT.get(out[-1], {}).get("free")) is not None:
-        folder, name = folder_name
-        on = name if folder == "records" else dict(p.split("=", 1) for p in name.split()).get("variant")
+def built_chain(method: str | None = None) -> list[str]:
+    """``method`` (default :data:`METHOD`) and the methods it is built on through :data:`EQUIVALENT` (on a
+    free object: the method whose records stand in for it, or the variant the lever that does names):
+    ``grasp_held_expected``, ``grasp_held_retract``, ``grasp_held_eased``."""
+    out = [method or METHOD]
+    while (entry := EQUIVALENT.get(out[-1], {}).get("free")) is not None:
+        folder, name = entry
+        on = name if folder == "records" else lever_variant(name)
         if not on or on in out:
             break
         out.append(on)
     return out
+
+
+def free_base(method: str | None = None) -> str:
+    """The method whose trials are ``method``'s (default :data:`METHOD`) on a free object, on which the
+    levers of the free objects are built: the last of :func:`built_chain` (itself where
+    :data:`EQUIVALENT` has none)."""
+    return built_chain(method)[-1]
 
 
 def object_kind(df: pd.DataFrame, task: str) -> str | None:
@@ -1152,7 +1151,7 @@ def lever_frame(study) -> pd.DataFrame:
     levers = [lever_of(p) for p in ok["record_path"]]
     # the method it is on: the variant its overrides name, else the one its name starts with (a lever that
     # makes a named method, reuse=elites_expected variant=grasp_held_retract, is on the variant it names)
-    named = [dict(p.split("=", 1) for p in lever.split()).get("variant") for lever in levers]
+    named = [lever_variant(lever) for lever in levers]
     prefix = ok["variant"].astype(str).str.split("+").str[0]
     return ok.assign(lever=levers, seeds=half, on=[n or p for n, p in zip(named, prefix, strict=True)])
 
