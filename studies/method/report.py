@@ -1111,6 +1111,9 @@ LEVER_TEXT = {
     "planner.reuse_grasp=4": "the runners-up carried only from the reference's first instant with four "
     "fingers on the object (`planner.reuse_grasp`; `reuse=elites_expected`'s three): later where the "
     "reference closes its grasp finger by finger (*When the reference closes its grasp*)",
+    "planner.reuse_fingers=2": "the runners-up carried only into the plans whose state has at least two "
+    "fingers on the object (`planner.reuse_fingers`; `reuse=elites_grasped`'s gate), here on top of "
+    "`reuse=elites_expected`'s",
     "planner.reuse=4": "4 of the last plan's runners-up carried into the next (`planner.reuse`; "
     "`reuse=elites`'s 8), so a plan of 32 samples draws 28 fresh",
     "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
