@@ -207,11 +207,13 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
     df = release.with_errors(df)
     df = df if folder is not None else with_equivalents(study, df)
     # the cost columns compare CPU seconds on one processor only (its family and model, as the host names
-    # it): per method and task, the one most of its trials ran on
+    # it): per method and task, the one most of its trials ran on (of the levers', per lever: one setting a
+    # value no group names, planner.reuse_grasp=4, runs another config under the same method's name)
     df = df.copy()
     df["cost_processor"] = None
     if PROCESSOR in df and len(df):
-        for _, g in df.groupby(["task", "variant"], dropna=False):
+        by = [df["task"], df["variant"]] + ([df["record_path"].map(lever_of)] if folder == LEVERS else [])
+        for _, g in df.groupby(by, dropna=False):
             df.loc[g.index, "cost_processor"] = cost_processor(g)
     df["cpu_seconds"] = df["cpu_seconds"].where(
         df[PROCESSOR].eq(df["cost_processor"]) if PROCESSOR in df else False
