@@ -420,6 +420,19 @@ def test_grasp_held_expected_is_the_method_keeping_its_runners_up_once_the_refer
     assert labels.method_name({"variant": "grasp_held_retract", **choices}) == "grasp_held_expected"
 
 
+def test_effort_acquire_long_keeps_the_grasps_samples_for_4_s_after_the_first_contact():
+    """effort=acquire_long on the paper default: 128 samples a plan until 4 s after the first expected
+    contact (acquire's 2 s), nothing else differs, and the method is named with it."""
+    named, choices = _paper_apple()
+    longer, long_choices = _paper_apple("effort=acquire_long")
+    planner, before = longer.pop("planner"), named.pop("planner")
+    assert longer == named
+    assert {k: v for k, v in planner.items() if before.get(k) != v} == {"acquire_until": 4.0}
+    assert planner["acquire_samples"] == 128 == before["acquire_samples"]
+    name = labels.method_name({"variant": "grasp_held_expected", **long_choices})
+    assert name == "grasp_held_expected+effort=acquire_long"
+
+
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():
     """place=wrist sets the release schedule's window to the 3 s before the last expected contact (off by
     default: none composes the config of before); the record labels it and the method is named with it;
