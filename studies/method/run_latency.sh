@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The method at another latency than the calibrated one (the method study's "At another latency"): the
 # task's default method at preset=paper_32samples_calibrated (VARIANT=<name>: that variant, in the runs'
-# names; the runs without one ran grasp_release_ahead_acquire, the default then) on TASKS and
+# names; without one grasp_release_ahead_acquire, the default when the unnamed runs were made, so a resume
+# composes the trial they ran) on TASKS and
 # SEEDS with each plan applied LATENCY s after its state (planner.latency) and plans still started every
 # 0.17 s (planner.replan_period; EVERY=0.06 starts them that often instead, the runs named _every06; a
 # LATENCY over 0.17 starts them that often), as a machine that plans faster (or slower) than the calibrated
@@ -21,7 +22,7 @@ for task in ${TASKS:-paper_stapler}; do
     [[ -f "$KEEP/$name/trial.json" ]] && continue
     dir="outputs/method_latency/$name"
     # shellcheck disable=SC2086  (EXTRA is several overrides)
-    "$PY" launch.py task="$task" ${VARIANT:+variant=$VARIANT} seed="$seed" planner.nthread=1 \
+    "$PY" launch.py task="$task" variant="${VARIANT:-grasp_release_ahead_acquire}" seed="$seed" planner.nthread=1 \
       job.progress=false planner.latency="$LATENCY" planner.replan_period="${EVERY:-0.17}" ${EXTRA:-} \
       hydra.run.dir="$dir" || echo "run failed: $name"
     if [[ -f "$dir/trial.json" ]]; then mkdir -p "$KEEP/$name" && cp "$dir/trial.json" "$KEEP/$name/"; fi
