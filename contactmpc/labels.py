@@ -55,6 +55,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "grasp_held_eased_refined": "full",
     "grasp_held_retract": "full",
     "grasp_held_expected": "full",
+    "grasp_held_expected_long": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -129,6 +130,13 @@ NAMED_METHODS["grasp_held_expected"] = {
     **NAMED_METHODS["grasp_held_retract"],
     "variant": "grasp_held_expected",
     "reuse": "elites_expected",
+}
+
+# grasp_held_expected with the grasp's 128 samples a plan until 4 s after the first expected contact
+NAMED_METHODS["grasp_held_expected_long"] = {
+    **NAMED_METHODS["grasp_held_expected"],
+    "variant": "grasp_held_expected_long",
+    "effort": "acquire_long",
 }
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}

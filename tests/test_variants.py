@@ -125,8 +125,8 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
     # (wrist, wrist_clearance) or that are the project's methods (grasp_release and those that add groups
     # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased, grasp_held_eased_refined,
-    # grasp_held_retract, grasp_held_expected)
-    assert len(VARIANTS) <= 14
+    # grasp_held_retract, grasp_held_expected, grasp_held_expected_long)
+    assert len(VARIANTS) <= 15
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -429,8 +429,9 @@ def test_effort_acquire_long_keeps_the_grasps_samples_for_4_s_after_the_first_co
     assert longer == named
     assert {k: v for k, v in planner.items() if before.get(k) != v} == {"acquire_until": 4.0}
     assert planner["acquire_samples"] == 128 == before["acquire_samples"]
-    name = labels.method_name({"variant": "grasp_held_expected", **long_choices})
-    assert name == "grasp_held_expected+effort=acquire_long"
+    for variant in ("grasp_held_expected", "grasp_held_expected_long"):  # the lever's trials name the method
+        assert labels.method_name({"variant": variant, **long_choices}) == "grasp_held_expected_long"
+    assert _paper_apple("variant=grasp_held_expected_long") == (longer | {"planner": planner}, long_choices)
 
 
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():

@@ -78,6 +78,7 @@ ORDER = (
     "grasp_held_eased+rollout=fine_budget",
     "grasp_held_eased+rollout=fine",
     "grasp_held_eased+retarget=wrist",
+    "grasp_held_expected_long",
     "grasp_held_expected",
     "grasp_held_retract",
     "grasp_held_eased",
@@ -229,8 +230,12 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
 #: ``tests/test_release.py`` checks the planner bit for bit on a free object): on a free object it is
 #: ``grasp_held_eased``, on the doorknob ``grasp_held_eased`` with the lever below.
 #: ``grasp_held_expected`` is ``grasp_held_retract`` with ``reuse=elites_expected``: on every object, that
-#: lever's trials.
+#: lever's trials; ``grasp_held_expected_long`` is ``grasp_held_expected`` with ``effort=acquire_long``.
 EQUIVALENT = {
+    "grasp_held_expected_long": {
+        "free": ("levers", "effort=acquire_long variant=grasp_held_expected"),
+        "joints": ("levers", "effort=acquire_long variant=grasp_held_expected"),
+    },
     "grasp_held_expected": {
         "free": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
         "joints": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
