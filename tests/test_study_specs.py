@@ -670,6 +670,8 @@ def test_the_method_study_lets_the_trials_of_an_equivalent_config_stand_in_for_t
     monkeypatch.setattr(spec, "frame", lambda study, folder=None: levers)
     monkeypatch.setattr(spec, "lever_of", lambda path: lever)
     out = spec.with_equivalents(None, df)
+    # the methods whose levers have no trial here add no rows, and leave the flags' columns boolean
+    assert out["counted"].dtype == bool and (~out["counted"]).sum() == 0
     mine = out[out["variant"] == "grasp_held_retract"].set_index(["task", "seed"]).sort_index()
     assert list(mine.index) == [("apple", 0), ("apple", 1), ("apple", 2), ("doorknob", 0), ("doorknob", 1)]
     assert mine["stand_in"].isna().tolist() == [True, False, False, False, False]

@@ -317,7 +317,9 @@ def with_equivalents(study, df: pd.DataFrame, seeds=None) -> pd.DataFrame:
                 own = df.loc[(df["variant"] == method) & (df["task"] == task) & (df["seed"] == seed)]
                 a, b = read_record(own["record_path"].iloc[0]), read_record(path)
                 checks.append((method, task, int(seed), name, all(a.get(k) == b.get(k) for k in SAME_RECORD)))
-            rows.append(found[[not m for m in mine]].assign(variant=method, stand_in=name))
+            missing = found[~np.array(mine, dtype=bool)]  # a boolean mask even where none is found
+            if len(missing):
+                rows.append(missing.assign(variant=method, stand_in=name))
     attrs = {**df.attrs, "equivalent_checks": checks}
     if rows:
         df = pd.concat([df, *rows], ignore_index=True)
