@@ -421,10 +421,11 @@ def test_grasp_held_expected_is_the_method_keeping_its_runners_up_once_the_refer
 
 
 def test_effort_acquire_long_keeps_the_grasps_samples_for_4_s_after_the_first_contact():
-    """effort=acquire_long on the paper default: 128 samples a plan until 4 s after the first expected
-    contact (acquire's 2 s), nothing else differs, and the method is named with it."""
-    named, choices = _paper_apple()
-    longer, long_choices = _paper_apple("effort=acquire_long")
+    """effort=acquire_long on grasp_held_expected: 128 samples a plan until 4 s after the first expected
+    contact (acquire's 2 s), nothing else differs; variant=grasp_held_expected_long composes exactly that,
+    and the lever's trials are named by it."""
+    named, choices = _paper_apple("variant=grasp_held_expected")
+    longer, long_choices = _paper_apple("variant=grasp_held_expected", "effort=acquire_long")
     planner, before = longer.pop("planner"), named.pop("planner")
     assert longer == named
     assert {k: v for k, v in planner.items() if before.get(k) != v} == {"acquire_until": 4.0}
