@@ -695,9 +695,11 @@ def test_a_method_a_lever_stands_in_for_is_built_on_the_variant_it_names(monkeyp
 
     spec = Study("method").spec
     lever = "reuse=elites_expected variant=grasp_held_retract"
-    assert spec.METHOD == "grasp_held_expected"
-    assert spec.EQUIVALENT[spec.METHOD] == {"free": ("levers", lever), "joints": ("levers", lever)}
-    assert spec.built_chain() == ["grasp_held_expected", "grasp_held_retract", "grasp_held_eased"]
+    assert spec.EQUIVALENT["grasp_held_expected"] == {"free": ("levers", lever), "joints": ("levers", lever)}
+    chain = ["grasp_held_expected", "grasp_held_retract", "grasp_held_eased"]
+    assert spec.built_chain("grasp_held_expected") == chain
+    assert spec.built_chain("grasp_held_expected_long") == ["grasp_held_expected_long", *chain]  # two levers
+    assert spec.METHOD in spec.built_chain("grasp_held_expected_long")
     assert spec.free_base() == "grasp_held_eased" == spec.free_base("grasp_held_eased")
     folders = [f"experiment=method,{lever.replace(' ', ',')},seed=0,task=paper_apple",
                "carry=held,experiment=method,seed=0,task=paper_apple"]  # fmt: skip
