@@ -1365,6 +1365,36 @@ def test_reuse_carries_the_last_plans_runners_up_into_the_next_plan():
     problem.engine.close()
 
 
+def test_reuse_scaled_keeps_the_same_share_of_runners_up_in_a_larger_plan():
+    """planner.reuse_scaled: a plan of acquire_samples keeps reuse per num_samples of its samples (20 of
+    a 3-in-12 share: 5) and the next plan of that size takes them all in; a plan of num_samples takes in
+    reuse of them; off, every plan keeps reuse (the trial of before, bit for bit)."""
+    problem = PointMassProblem(sigma=0.4)
+    args = {"num_samples": 12, "horizon": 0.5, "reuse": 3, "acquire_samples": 20, "acquire_until": 0.3}
+    on = PredictiveSampling(**args, reuse_scaled=True)
+    off = PredictiveSampling(**args)
+    same = PredictiveSampling(**args, reuse_scaled=False)
+    for planner in (on, off, same):
+        problem.bind(planner)
+        planner.problem.first_contact = 0.0  # the acquire window: [0, 0.3)
+    seen_on, seen_off, seen_same = _evaluated(on), _evaluated(off), _evaluated(same)
+    assert (on.reuse_count(20), on.reuse_count(12), off.reuse_count(20)) == (5, 3, 3)
+    for k, t in enumerate((0.0, 0.1, 0.4)):  # two plans of 20 samples, then one of 12
+        for planner in (on, off, same):
+            planner.plan(t, problem.state, np.random.default_rng(k))
+        np.testing.assert_array_equal(seen_same[k][0], seen_off[k][0])  # off is the trial of before
+        np.testing.assert_array_equal(same.theta, off.theta)
+        kept = {id(p): len(p._kept[1]) for p in (on, off)}
+        assert kept == {id(on): 5 if t < 0.3 else 3, id(off): 3}
+    first_on, first_off = seen_on[0][0], seen_off[0][0]
+    np.testing.assert_array_equal(first_on, first_off)  # nothing kept yet: the same first plan
+    assert len(seen_on[1][0]) == 20 and len(seen_on[2][0]) == 12
+    # the second plan of 20: the last 5 rows are runners-up (off: 3), the rows before them fresh draws
+    np.testing.assert_array_equal(seen_on[1][0][:-5], seen_off[1][0][:-5])
+    assert not np.array_equal(seen_on[1][0][-5:-3], seen_off[1][0][-5:-3])
+    problem.engine.close()
+
+
 def test_reuse_after_carries_the_runners_up_only_from_then_on():
     """planner.reuse_after: before that long after the first expected contact a plan is reuse=0's bit for
     bit (its runners-up kept but not carried in); from then on its last rows are the kept runners-up."""

@@ -251,6 +251,11 @@ class Planner:
             draw every sample fresh, and a grasp the reference closes at once (the apple's, the bottle's)
             keeps them from its start; 0 (the default): no such gate. A reference that never expects that
             many: into no plan.
+        reuse_scaled: with ``reuse``, keep and carry in ``reuse`` runners-up per ``num_samples`` samples
+            of the plan (not the paper's): a plan of ``acquire_samples`` (128 against 32) keeps 4x as
+            many and the next takes in as many as its own size allows at that share, so the grasp's
+            larger plans carry the same share of runners-up as the later ones; False (the default):
+            ``reuse`` of them whatever a plan's size.
     """
 
     needs_rollouts = True
@@ -304,6 +309,7 @@ class Planner:
         reuse_alone: bool = True,
         reuse_until: float | None = None,
         reuse_grasp: Annotated[int, Ge(0)] = 0,
+        reuse_scaled: bool = False,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -423,6 +429,7 @@ class Planner:
         self.reuse_alone = bool(reuse_alone)
         self.reuse_until = None if reuse_until is None else float(reuse_until)
         self.reuse_grasp = int(reuse_grasp)
+        self.reuse_scaled = bool(reuse_scaled)
         self._reuse_from: float | None = None  # (reuse_grasp) reference time of the reference's grasp
         self._reuse_gate = True  # (reuse_fingers, reuse_alone, reuse_until) whether this plan carries them in
         # (reuse) the last plan's runners-up: its window and their differences from what it committed
@@ -1070,15 +1077,23 @@ class Planner:
         (S,) other than the committed control points, as their differences from them (:meth:`reused`)."""
         committed = self.theta[window]
         order = [i for i in np.argsort(total, kind="stable") if np.isfinite(total[i])]
-        order = [i for i in order if not np.array_equal(candidates[i], committed)][: self.reuse]
+        order = [i for i in order if not np.array_equal(candidates[i], committed)]
+        order = order[: self.reuse_count(len(total))]
         self._kept = (window.copy(), candidates[order] - committed[None]) if order else None
+
+    def reuse_count(self, samples: int) -> int:
+        """How many runners-up a plan of ``samples`` samples keeps and takes in: ``reuse``, or with
+        ``reuse_scaled`` ``reuse`` per ``num_samples`` of them (at least 1)."""
+        if not self.reuse_scaled:
+            return self.reuse
+        return max(1, round(self.reuse * samples / self.num_samples))
 
     def reused(self, candidates: np.ndarray, window: np.ndarray) -> None:
         """Put the last plan's kept runners-up (:meth:`keep`) in the last rows of a plan's fresh
         ``candidates`` (S, Mw, d) over ``window``, in place: each the nominal plus its kept difference on the
         control points both windows cover. Row 0, the nominal, stays."""
         kept_window, differences = self._kept
-        count = min(len(differences), len(candidates) - 1)
+        count = min(len(differences), self.reuse_count(len(candidates)), len(candidates) - 1)
         if count <= 0:
             return
         _, here, there = np.intersect1d(window, kept_window, assume_unique=True, return_indices=True)
