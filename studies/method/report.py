@@ -1123,7 +1123,7 @@ LEVER_TEXT = {
     "planner.reuse_fingers=2": "the runners-up carried only into the plans whose state has at least two "
     "fingers on the object (`planner.reuse_fingers`; `reuse=elites_grasped`'s gate), here on top of "
     "`reuse=elites_expected`'s",
-    "planner.reuse_scaled=true": "the runners-up kept and carried in at `reuse=elites`'s share of a plan's "
+    "planner.reuse_scaled=True": "the runners-up kept and carried in at `reuse=elites`'s share of a plan's "
     "samples (`planner.reuse_scaled`; the method's 8 whatever a plan's size): 32 of a grasp plan's 128, so "
     "a longer grasp window (`effort=acquire_long`) does not thin them out",
     "planner.reuse=4": "4 of the last plan's runners-up carried into the next (`planner.reuse`; "
