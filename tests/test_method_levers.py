@@ -1569,6 +1569,37 @@ def test_reuse_grasp_carries_the_runners_up_only_from_the_references_grasp(scene
         planner.engine.close()
 
 
+def test_acquire_grasp_keeps_the_grasps_samples_until_after_the_references_grasp(scene_for):
+    """planner.acquire_grasp: the acquire window ends acquire_until after the reference's first instant
+    with that many fingers on the object, not after its first expected contact; off (0), and where the
+    reference never expects that many, it ends after the first expected contact as before."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    names = scene.hand.link_names
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:] = False
+    ff = [i for i, n in enumerate(names) if n.startswith("ff_")]
+    grasp = [names.index(n) for n in ("ff_tip", "mf_tip", "th_tip")]
+    ref.contact_active[2:, ff] = True  # the index alone from frame 2, the grasp of three from frame 6
+    ref.contact_active[6:, grasp] = True
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    args = {"num_samples": 8, "horizon": 0.2, "acquire_samples": 20, "acquire_until": 0.1}
+    planners = {k: PredictiveSampling(**args, acquire_grasp=k) for k in (0, 3, 4)}
+    for planner in planners.values():
+        planner.bind(problem)
+    first = problem.first_contact
+    grasp_at = float(np.flatnonzero(expected_fingers(problem.track.contact_active, names) >= 3)[0])
+    grasp_at *= problem.track.dt
+    assert grasp_at > first + 0.1 and planners[3]._acquire_from == pytest.approx(grasp_at)
+    for t in (0.0, first + 0.05, first + 0.15, grasp_at + 0.05, grasp_at + 0.15):
+        assert planners[0].samples_at(t) == (20 if t < first + 0.1 else 8)  # off: from the first contact
+        assert planners[3].samples_at(t) == (20 if t < grasp_at + 0.1 else 8), t
+        assert planners[4].samples_at(t) == planners[0].samples_at(t)  # never 4 fingers: as off
+    for planner in planners.values():
+        planner.engine.close()
+
+
 def test_a_reused_trial_runs_and_reuse_zero_is_the_trial_of_before(tmp_path, late_contact_reference):
     """reuse=elites composes (planner.reuse 8); at planner.reuse=0 the trial is reuse=none's bit for bit;
     reuse=elites_after_grasp composes (8, from 2 s after the first expected contact), and

@@ -131,6 +131,13 @@ class Planner:
             paper): ``num_samples`` throughout. A latency model prices the larger plan.
         acquire_until: seconds after the first expected contact that ``acquire_samples`` (and
             ``acquire_horizon``) lasts.
+        acquire_grasp: with ``acquire_samples``, the window lasts ``acquire_until`` after the reference's
+            first instant with at least this many fingers on the object (a finger as counted for
+            ``reuse_grasp``) instead of after its first expected contact (not the paper's), so a grasp the
+            reference closes finger by finger (the stapler's: its index alone for 1.9 s before the others)
+            keeps the grasp's samples until it has closed, and one it closes at once (the apple's) keeps
+            them about as long as from its first contact; 0 (the default): from the first expected
+            contact. A reference that never expects that many: from the first expected contact.
         acquire_horizon: the horizon (s) of the plans in that window, the grasp's (not the paper's): a
             plan there rolls out and scores this much of the reference, so its samples cost
             ``acquire_horizon / horizon`` of a full plan's; ``None`` (the paper): ``horizon`` throughout. A
@@ -278,6 +285,7 @@ class Planner:
         compensate_latency: bool = False,
         acquire_samples: Annotated[int, Ge(1)] | None = None,
         acquire_until: float = 2.0,
+        acquire_grasp: Annotated[int, Ge(0)] = 0,
         acquire_horizon: Annotated[float, Gt(0)] | None = None,
         step_budget: Annotated[int, Ge(1)] | None = None,
         approach_reset: Annotated[float, Ge(0)] | None = None,
@@ -384,6 +392,8 @@ class Planner:
         self.compensate_latency = bool(compensate_latency)
         self.acquire_samples = None if acquire_samples is None else int(acquire_samples)
         self.acquire_until = float(acquire_until)
+        self.acquire_grasp = int(acquire_grasp)
+        self._acquire_from: float | None = None  # (acquire_grasp) reference time of the reference's grasp
         self.acquire_horizon = None if acquire_horizon is None else float(acquire_horizon)
         self._horizon_now = self.horizon  # the horizon of the plan being made (horizon_at)
         self.step_budget = None if step_budget is None else int(step_budget)
@@ -525,6 +535,10 @@ class Planner:
             guided = self.guidance.bind(problem.scene, problem.track, self.iterations)
             if self.engine is None:
                 self.engine = RolloutEngine(guided, self.nthread, CONTROL_SPEC, self.guidance.off())
+        if self.acquire_grasp:
+            fingers = expected_fingers(problem.track.contact_active, problem.scene.hand.link_names)
+            grasped = np.flatnonzero(fingers >= self.acquire_grasp)
+            self._acquire_from = float(grasped[0] * problem.track.dt) if grasped.size else None
         if self.reuse_grasp:
             fingers = expected_fingers(problem.track.contact_active, problem.scene.hand.link_names)
             grasped = np.flatnonzero(fingers >= self.reuse_grasp)
@@ -995,9 +1009,13 @@ class Planner:
 
     def acquiring(self, t: float) -> bool:
         """Whether reference time ``t`` is in the acquire window: before ``acquire_until`` after the first
-        expected contact (never without one)."""
+        expected contact (never without one), or with ``acquire_grasp`` after the reference's grasp of that
+        many fingers where it has one."""
         first = getattr(self.problem, "first_contact", None)
-        return first is not None and t < first + self.acquire_until - 1e-9
+        if first is None:
+            return False
+        anchor = self._acquire_from if self.acquire_grasp and self._acquire_from is not None else first
+        return t < anchor + self.acquire_until - 1e-9
 
     def fingers_touching(self, state: np.ndarray) -> int:
         """How many fingers touch the object in the full-physics ``state`` (the planning model's contacts):
