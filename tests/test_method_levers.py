@@ -1523,6 +1523,17 @@ def test_expected_fingers_counts_the_fingers_of_the_expected_links():
     np.testing.assert_array_equal(expected_fingers(active, names), [0, 0, 1, 2, 3])
 
 
+def index_then_grasp(scene):
+    """A 1 s static reference of ``scene`` that expects the index alone on the object from frame 2 and
+    the grasp of three fingers (index, middle, thumb tips) from frame 6."""
+    names = scene.hand.link_names
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:] = False
+    ref.contact_active[2:, [i for i, n in enumerate(names) if n.startswith("ff_")]] = True
+    ref.contact_active[6:, [names.index(n) for n in ("ff_tip", "mf_tip", "th_tip")]] = True
+    return ref
+
+
 def test_reuse_grasp_carries_the_runners_up_only_from_the_references_grasp(scene_for):
     """planner.reuse_grasp (reuse=elites_expected): the plans before the reference first expects that many
     fingers on the object are reuse=0's bit for bit; from there on a plan takes the last plan's runners-up
@@ -1531,12 +1542,7 @@ def test_reuse_grasp_carries_the_runners_up_only_from_the_references_grasp(scene
 
     scene = scene_for("apple")
     names = scene.hand.link_names
-    ref = static_reference(scene, duration=1.0, frames=11)
-    ref.contact_active[:] = False
-    ff = [i for i, n in enumerate(names) if n.startswith("ff_")]
-    grasp = [names.index(n) for n in ("ff_tip", "mf_tip", "th_tip")]
-    ref.contact_active[2:, ff] = True  # the index alone from frame 2, the grasp of three from frame 6
-    ref.contact_active[6:, grasp] = True
+    ref = index_then_grasp(scene)
     space = PCASplineSpace(0.2)
 
     def pair(fingers):
@@ -1577,12 +1583,7 @@ def test_acquire_grasp_keeps_the_grasps_samples_until_after_the_references_grasp
 
     scene = scene_for("apple")
     names = scene.hand.link_names
-    ref = static_reference(scene, duration=1.0, frames=11)
-    ref.contact_active[:] = False
-    ff = [i for i, n in enumerate(names) if n.startswith("ff_")]
-    grasp = [names.index(n) for n in ("ff_tip", "mf_tip", "th_tip")]
-    ref.contact_active[2:, ff] = True  # the index alone from frame 2, the grasp of three from frame 6
-    ref.contact_active[6:, grasp] = True
+    ref = index_then_grasp(scene)
     problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
     args = {"num_samples": 8, "horizon": 0.2, "acquire_samples": 20, "acquire_until": 0.1}
     planners = {k: PredictiveSampling(**args, acquire_grasp=k) for k in (0, 3, 4)}

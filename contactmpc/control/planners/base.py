@@ -536,13 +536,10 @@ class Planner:
             if self.engine is None:
                 self.engine = RolloutEngine(guided, self.nthread, CONTROL_SPEC, self.guidance.off())
         if self.acquire_grasp:
-            fingers = expected_fingers(problem.track.contact_active, problem.scene.hand.link_names)
-            grasped = np.flatnonzero(fingers >= self.acquire_grasp)
-            self._acquire_from = float(grasped[0] * problem.track.dt) if grasped.size else None
+            self._acquire_from = first_grasp(problem, self.acquire_grasp)
         if self.reuse_grasp:
-            fingers = expected_fingers(problem.track.contact_active, problem.scene.hand.link_names)
-            grasped = np.flatnonzero(fingers >= self.reuse_grasp)
-            self._reuse_from = float(grasped[0] * problem.track.dt) if grasped.size else float("inf")
+            grasp = first_grasp(problem, self.reuse_grasp)
+            self._reuse_from = float("inf") if grasp is None else grasp
         if self.needs_rollouts and self.engine is None:
             self.engine = RolloutEngine(problem.scene.planner_model, self.nthread)
         if self.robust is not None:
@@ -1300,6 +1297,14 @@ def expected_fingers(contact_active: np.ndarray, names) -> np.ndarray:
     """(N,) how many fingers (:func:`fingers_of`) the reference expects on the object at each step of its
     expected contacts ``contact_active`` (N, L), over the hand links ``names``."""
     return np.array([len(fingers_of(names, np.flatnonzero(row))) for row in np.asarray(contact_active, bool)])
+
+
+def first_grasp(problem, fingers: int) -> float | None:
+    """The reference time of ``problem``'s reference's first instant with at least ``fingers`` fingers
+    (:func:`expected_fingers`) on the object; ``None`` where it never expects that many."""
+    counts = expected_fingers(problem.track.contact_active, problem.scene.hand.link_names)
+    grasped = np.flatnonzero(counts >= fingers)
+    return float(grasped[0] * problem.track.dt) if grasped.size else None
 
 
 def improvement(before: float, after: float) -> float:
