@@ -134,7 +134,7 @@ class Planner:
         acquire_grasp: with ``acquire_samples``, the window lasts ``acquire_until`` after the reference's
             first instant with at least this many fingers on the object (a finger as counted for
             ``reuse_grasp``) instead of after its first expected contact (not the paper's), so a grasp the
-            reference closes finger by finger (the stapler's: its index alone for 1.9 s before the others)
+            reference closes finger by finger (the stapler's: its index alone before the others come)
             keeps the grasp's samples until it has closed, and one it closes at once (the apple's) keeps
             them about as long as from its first contact; 0 (the default): from the first expected
             contact. A reference that never expects that many: from the first expected contact.
