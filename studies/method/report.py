@@ -222,6 +222,11 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
     return df
 
 
+def _lever_on_every_object(lever: str) -> dict[str, tuple[str, str]]:
+    """An :data:`EQUIVALENT` entry whose trials are ``lever``'s on a free object and on joints alike."""
+    return {kind: ("levers", lever) for kind in ("free", "joints")}
+
+
 #: Trials that are a method's in all but their name, by its own rule: per method and kind of object
 #: (``free``: a free body; ``joints``: an object on joints only), whose trials stand in for its own on a
 #: planned seed it has none of its own on: another method's of the sweep (``records``) or a lever's
@@ -232,14 +237,8 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
 #: ``grasp_held_expected`` is ``grasp_held_retract`` with ``reuse=elites_expected``: on every object, that
 #: lever's trials; ``grasp_held_expected_long`` is ``grasp_held_expected`` with ``effort=acquire_long``.
 EQUIVALENT = {
-    "grasp_held_expected_long": {
-        "free": ("levers", "effort=acquire_long variant=grasp_held_expected"),
-        "joints": ("levers", "effort=acquire_long variant=grasp_held_expected"),
-    },
-    "grasp_held_expected": {
-        "free": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
-        "joints": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
-    },
+    "grasp_held_expected_long": _lever_on_every_object("effort=acquire_long variant=grasp_held_expected"),
+    "grasp_held_expected": _lever_on_every_object("reuse=elites_expected variant=grasp_held_retract"),
     "grasp_held_retract": {
         "free": ("records", "grasp_held_eased"),
         "joints": ("levers", "release=retract sampler.release.retract_again=True"),
