@@ -139,6 +139,29 @@ def test_the_method_study_reads_the_target_as_a_chance_over_new_seeds() -> None:
     assert abs(total - 1) < 1e-9 and 0 < spec.meets_target_chance(13, 4, 3) < 1
 
 
+def test_the_method_study_ranks_the_methods_by_their_chance_on_every_task() -> None:
+    """Only a method with ten seeds on every planned task is ranked; its last column is the product of its
+    tasks' chances, and the likelier method comes first."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    tasks = spec.plan()[0]
+    rows = []
+    for method, clean in (("full", 7), ("grasp_held_retract", 9), ("grasp_held_eased", 10)):
+        for task in tasks if method != "grasp_held_eased" else tasks[:-1]:
+            for seed in range(10):
+                rows.append(dict(task=task, variant=method, seed=seed, completed=True,
+                                 finished_cleanly=seed < clean))  # fmt: skip
+    text = spec.every_task_odds(pd.DataFrame(rows), pd.DataFrame())
+    ranked = [line for line in text.splitlines() if line.startswith("| `")]
+    assert [line.split("`")[1] for line in ranked] == ["grasp_held_retract", "full"]
+    chance = {c: spec.meets_target_chance(c, 10 - c, 0) for c in (7, 9)}
+    for line, c in zip(ranked, (9, 7), strict=True):
+        assert line.rstrip(" |").endswith(f"{100 * chance[c] ** len(tasks):.0f} %")
+        assert line.count(f"10 / {c} of 10 ({100 * chance[c]:.0f} %)") == len(tasks)
+    assert spec.every_task_odds(pd.DataFrame(rows[: 10 * len(tasks) - 1]), pd.DataFrame()) == ""
+
+
 def test_the_method_studys_after_span_figure_draws_each_trial_from_its_time_series(tmp_path) -> None:
     import numpy as np
     import pandas as pd

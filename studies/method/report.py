@@ -948,6 +948,7 @@ def heldout(study, chosen: pd.DataFrame) -> str:
         + ";\n".join(lines)
         + (".\n" if lines else "")
         + target_odds(base, ok)
+        + every_task_odds(base, ok)
         + against_method(base, ok, methods)
     )
 
@@ -1018,6 +1019,45 @@ def target_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
         f"The last column is the chance that {TARGET_SEEDS} new seeds meet both, from these counts (the "
         "posterior predictive of clean, completed but not clean and not completed, under a uniform prior on "
         "their rates):\n\n" + pipe_table(cols, "llrrr", rows)
+    )
+
+
+def every_task_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
+    """Each method of :data:`ORDER` with at least :data:`TARGET_SEEDS` seeds on every planned task, the
+    sweep's (``sweep``) and the held-out ones (``held``), stand-ins counted in: per task its counts and the
+    chance that ten new seeds meet the target (:func:`meets_target_chance`), and the product of the four,
+    the chance that one new draw of ten seeds per task meets it on all of them (the tasks' draws
+    independent); likeliest first. Empty where no method has that many."""
+    trials = pd.concat([sweep, held]) if len(held) else sweep
+    tasks = plan()[0]
+    found = []
+    for method in ORDER:
+        cells, joint = [], 1.0
+        for task in tasks:
+            g = cell(trials, task, method).drop_duplicates("seed")
+            if len(g) < TARGET_SEEDS:
+                break
+            n, done, clean = len(g), int(g["completed"].sum()), int(g["finished_cleanly"].sum())
+            chance = meets_target_chance(clean, done - clean, n - done)
+            joint *= chance
+            cells.append(f"{done} / {clean} of {n} ({100 * chance:.0f} %)")
+        else:
+            found.append((joint, method, cells))
+    if not found:
+        return ""
+    found.sort(key=lambda x: -x[0])
+    rows = [f"| `{m}` | " + " | ".join(cells) + f" | {100 * joint:.0f} % |" for joint, m, cells in found]
+    cols = ("method", *(f"{t}: completed / clean of seeds (chance)" for t in tasks), "all four")
+    best = found[0]
+    return (
+        f"\n**Which method is likeliest to meet the target on every task.** Each method with at least "
+        f"{TARGET_SEEDS} seeds on each task (the sweep's and the held-out ones, stand-ins counted in): per "
+        f"task its counts and the chance that {TARGET_SEEDS} new seeds meet the target (as above), and their "
+        f"product, the chance that a new draw of {TARGET_SEEDS} seeds on each task meets it on all "
+        f"{len(tasks)} (the tasks' draws taken as independent); likeliest first. Over fewer seeds the "
+        "uniform prior weighs more: the same rates give a lower chance.\n\n"
+        + pipe_table(cols, "l" + "r" * (len(tasks) + 1), rows)
+        + f"\nThe likeliest is `{best[1]}`, at {100 * best[0]:.0f} %.\n"
     )
 
 
