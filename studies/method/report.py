@@ -948,7 +948,7 @@ def heldout(study, chosen: pd.DataFrame) -> str:
         + ";\n".join(lines)
         + (".\n" if lines else "")
         + target_odds(base, ok)
-        + every_task_odds(base, ok)
+        + every_task_odds(base, ok, study)
         + against_method(base, ok, methods)
     )
 
@@ -1022,17 +1022,18 @@ def target_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
     )
 
 
-def every_task_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
+def every_task_odds(sweep: pd.DataFrame, held: pd.DataFrame, study=None) -> str:
     """Each method of :data:`ORDER` with at least :data:`TARGET_SEEDS` seeds on every planned task, the
     sweep's (``sweep``) and the held-out ones (``held``), stand-ins counted in: per task its counts and the
     chance that ten new seeds meet the target (:func:`meets_target_chance`), and the product of the four,
     the chance that one new draw of ten seeds per task meets it on all of them (the tasks' draws
-    independent); likeliest first. Empty where no method has that many."""
+    independent); likeliest first, with a figure of their rates where ``study`` is given. Empty where no
+    method has that many."""
     trials = pd.concat([sweep, held]) if len(held) else sweep
     tasks = plan()[0]
     found = []
     for method in ORDER:
-        cells, joint = [], 1.0
+        cells, counts, joint = [], [], 1.0
         for task in tasks:
             g = cell(trials, task, method).drop_duplicates("seed")
             if len(g) < TARGET_SEEDS:
@@ -1041,12 +1042,22 @@ def every_task_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
             chance = meets_target_chance(clean, done - clean, n - done)
             joint *= chance
             cells.append(f"{done} / {clean} of {n} ({100 * chance:.0f} %)")
+            counts.append((task, n, done, clean))
         else:
-            found.append((joint, method, cells))
+            found.append((joint, method, cells, counts))
     if not found:
         return ""
     found.sort(key=lambda x: -x[0])
-    rows = [f"| `{m}` | " + " | ".join(cells) + f" | {100 * joint:.0f} % |" for joint, m, cells in found]
+    link = (
+        study.draw(
+            "target_rates.png",
+            lambda path: target_figure(path, [(m, *c) for _, m, _, counts in found for c in counts]),
+            "each method's rates per task, with the rates the target needs",
+        )
+        if study is not None
+        else None
+    )
+    rows = [f"| `{m}` | " + " | ".join(cells) + f" | {100 * joint:.0f} % |" for joint, m, cells, _ in found]
     cols = ("method", *(f"{t}: completed / clean of seeds (chance)" for t in tasks), "all four")
     best = found[0]
     return (
@@ -1058,7 +1069,43 @@ def every_task_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
         "uniform prior weighs more: the same rates give a lower chance.\n\n"
         + pipe_table(cols, "l" + "r" * (len(tasks) + 1), rows)
         + f"\nThe likeliest is `{best[1]}`, at {100 * best[0]:.0f} %.\n"
+        + (f"\n{link}\n" if link else "")
     )
+
+
+def target_figure(path: Path, rows: list[tuple[str, str, int, int, int]]) -> None:
+    """Per task, each method's share of trials completed (hollow) and finished cleanly (filled) with
+    Wilson's 95 % intervals, and the rates at which ten new seeds meet the target's two counts
+    :data:`TARGET_ODDS` of the time (dashed): ``rows`` of ``(method, task, seeds, completed, clean)``."""
+    import matplotlib.pyplot as plt
+
+    from analysis.inference import wilson
+
+    tasks = list(dict.fromkeys(r[1] for r in rows))
+    methods = list(dict.fromkeys(r[0] for r in rows))
+    fig, axes = plt.subplots(1, len(tasks), figsize=(3.2 * len(tasks), 0.45 * len(methods) + 1.6),
+                             squeeze=False, sharey=True)  # fmt: skip
+    for ax, task in zip(axes[0], tasks, strict=True):
+        for method, _, n, done, clean in (r for r in rows if r[1] == task):
+            y = -methods.index(method)
+            for k, dy, face in ((done, 0.12, "white"), (clean, -0.12, "C0")):
+                lo, hi = wilson(k, n)
+                ax.plot([lo, hi], [y + dy, y + dy], color="C0", lw=1)
+                ax.plot(k / n, y + dy, "o", mfc=face, mec="C0", ms=5)
+        for k, label in ((TARGET_COMPLETED, "completed"), (TARGET_CLEAN, "clean")):
+            ax.axvline(needed_rate(k), color="k", lw=0.8, ls="--" if label == "clean" else ":")
+        ax.set_title(task)
+        ax.set_xlim(0, 1.02)
+        ax.set_xlabel("share of seeds")
+    axes[0][0].set_yticks([-i for i in range(len(methods))], methods, fontsize=7)
+    fig.suptitle(
+        f"completed (hollow) and finished cleanly (filled), 95 % intervals; the rates that meet the target "
+        f"{100 * TARGET_ODDS:.0f} % of the time: completed (dotted), clean (dashed)",
+        fontsize=8,
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def against_method(sweep: pd.DataFrame, held: pd.DataFrame, methods: list[str]) -> str:
