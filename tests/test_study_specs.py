@@ -162,6 +162,54 @@ def test_the_method_study_ranks_the_methods_by_their_chance_on_every_task() -> N
     assert spec.every_task_odds(pd.DataFrame(rows[: 10 * len(tasks) - 1]), pd.DataFrame()) == ""
 
 
+def test_the_method_study_says_where_failed_trials_part_from_a_clean_trial_of_their_seed() -> None:
+    """decided: per task and kind of failure, the failed trials counted by when they parted from their clean
+    twin (before the first expected contact, in the grasp window, later) and by how close to the reference's
+    lift their object left it; no rows, one line."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    rows = pd.DataFrame(
+        dict(task="stapler", seed=[0, 1, 2, 3], run="r", twin="t", completed=[False, False, False, True],
+             first_contact=10.0, lift=12.0, parted=[9.0, 10.5, 13.0, 11.0], off=[12.2, 12.4, 14.0, None])
+    )  # fmt: skip
+    text = spec.decided(rows)
+    row = next(line for line in text.splitlines() if line.startswith("| stapler | not completed"))
+    cells = [c.strip() for c in row.strip("|").split("|")][2:]
+    assert cells == ["3", "1", "1", "1", "+0.50", "+2.40", "+2.00"]
+    assert "2 of 3 trials not completed followed a clean trial" in text
+    assert "and 2 of 3 lost the object within 0.5 s of the reference's lift" in text
+    done = next(line for line in text.splitlines() if line.startswith("| stapler | completed, not clean"))
+    assert "never off" in done
+    assert spec.decided(rows.iloc[:0]).count("\n") == 1
+
+
+def test_decided_parts_two_paths_where_the_hand_or_the_object_first_differs(monkeypatch) -> None:
+    """studies/method/decided.py: two series part at the first sample where a hand joint differs by more than
+    HAND or an object coordinate by more than OBJECT; never where they stay within those; not compared
+    where their sample times differ (another pacing)."""
+    import importlib
+    import sys
+
+    import numpy as np
+
+    folder = Path(__file__).resolve().parent.parent / "studies" / "method"
+    monkeypatch.syspath_prepend(str(folder))
+    decided = importlib.import_module("decided")
+    t = np.arange(10) * 0.1
+    a = dict(time=t, hand_qpos=np.zeros((10, 3)), object_qpos=np.zeros((10, 7)))
+    b = {k: v.copy() for k, v in a.items()}
+    b["hand_qpos"][:, 1] += 0.5 * decided.HAND  # within: the same path
+    b["object_qpos"][:, 2] += 0.5 * decided.OBJECT
+    assert decided.parted(a, b) is None
+    b["object_qpos"][6:, 2] += decided.OBJECT
+    assert decided.parted(a, b) == t[6]
+    b["hand_qpos"][4:, 0] += 2 * decided.HAND
+    assert decided.parted(a, b) == t[4]
+    assert decided.parted(a, dict(b, time=t + 0.05)) is None
+    sys.modules.pop("decided", None)
+
+
 def test_the_method_studys_after_span_figure_draws_each_trial_from_its_time_series(tmp_path) -> None:
     import numpy as np
     import pandas as pd

@@ -3089,6 +3089,117 @@ def reference_grasps(rows: pd.DataFrame) -> str:
     return "".join(out)
 
 
+DECIDED = "decided.csv"
+#: after the reference's first expected contact (s): the window ``effort=acquire`` gives the grasp
+GRASP_WINDOW = 2.0
+#: s: an object that leaves the reference this close to the reference's lift is lost at the lift
+AT_LIFT = 0.5
+
+
+def decided_figure(path: Path, rows: pd.DataFrame) -> None:
+    """Per task, each failed trial's parting from its clean twin against when its object left the reference
+    (both s after the reference's first expected contact): a cross where it was not completed, a dot where
+    it was but not cleanly; the reference's lift dotted."""
+    import matplotlib.pyplot as plt
+
+    tasks = ordered(rows.loc[rows["off"].notna(), "task"].unique(), TASK_ORDER)  # those whose object left
+    fig, axes = plt.subplots(1, len(tasks), figsize=(3.6 * len(tasks), 3.4), squeeze=False)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        g = rows[rows["task"] == task]
+        for done, marker, color, label in (
+            (False, "x", "C3", "not completed"),
+            (True, "o", "0.5", "not clean"),
+        ):
+            h = g[g["completed"] == done]
+            ax.scatter(h["parted"] - h["first_contact"], h["off"] - h["first_contact"], marker=marker, s=16,
+                       color=color, alpha=0.7, label=label)  # fmt: skip
+        if g["lift"].notna().any():
+            ax.axvline((g["lift"] - g["first_contact"]).median(), color="k", lw=0.7, ls=":")
+        ax.axline((0, 0), slope=1, color="0.8", lw=0.7)
+        ax.set_title(task)
+        ax.set_xlabel("paths part, s after the first expected contact")
+    axes[0][0].set_ylabel("object off the reference, s after it")
+    axes[0][-1].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def decided(rows: pd.DataFrame, study=None) -> str:
+    """Where a seed's outcome is decided (:data:`DECIDED`'s rows: ``task``, ``seed``, ``run``, ``twin``,
+    ``completed``, ``first_contact``, ``lift``, ``parted``, ``off``; ``studies/method/decided.py``): per
+    task and kind of failure, how many failed trials parted from their clean twin before the reference's
+    first expected contact, within :data:`GRASP_WINDOW` after it and later, the median parting and the
+    median instant the object left the reference, beside the reference's lift; with a figure."""
+    if not len(rows):
+        return "No trial that did not finish cleanly has a clean trial of its seed on its processor.\n"
+    rel = rows.assign(parted=rows["parted"] - rows["first_contact"], off=rows["off"] - rows["first_contact"],
+                      lift=rows["lift"] - rows["first_contact"])  # fmt: skip
+    table, grasp, lines = [], [], []
+    for task in ordered(rel["task"].unique(), TASK_ORDER):
+        for done, kind in ((False, "not completed"), (True, "completed, not clean")):
+            g = rel[(rel["task"] == task) & (rel["completed"] == done)]
+            if not len(g):
+                continue
+            before = int((g["parted"] < 0).sum())
+            within = int(((g["parted"] >= 0) & (g["parted"] < GRASP_WINDOW)).sum())
+            lift = g["lift"].median()
+            left = g["off"].dropna()
+            table.append(
+                f"| {task} | {kind} | {len(g)} | {before} | {within} | {len(g) - before - within} "
+                f"| {g['parted'].median():+.2f} | "
+                + (f"{left.median():+.2f}" if len(left) else "never off")
+                + " | "
+                + (f"{lift:+.2f}" if pd.notna(lift) else "")
+                + " |"
+            )
+            if not done:
+                near = int(((g["off"] - g["lift"]).abs() <= AT_LIFT).sum()) if pd.notna(lift) else None
+                grasp.append((task, len(g), len(g) - before, within, near))
+    cols = ("task", "failure", "trials", "parted before the first expected contact",
+            f"in the {GRASP_WINDOW:g} s after it", "later", "parting, median s",
+            "object off the reference, median s", "the reference's lift, s")  # fmt: skip
+    for task, n, after, within, near in grasp:
+        lines.append(
+            f"{task}: {of(after, n)} trials not completed followed a clean trial of their seed past the "
+            f"reference's first expected contact ({within} parting within {GRASP_WINDOW:g} s of it)"
+            + (
+                f", and {of(near, n)} lost the object within {AT_LIFT:g} s of the reference's lift"
+                if near is not None
+                else ""
+            )
+        )
+    link = (
+        study.draw(
+            "decided.png",
+            lambda path: decided_figure(path, rows),
+            "where failed trials part from a clean trial of their seed",
+        )  # fmt: skip
+        if study is not None
+        else None
+    )
+    return (
+        "Trials of one task and seed on one processor start in the same state and draw the same random "
+        "numbers, so they follow one path until their options first act. For each kept trial that did not "
+        "finish cleanly and has a trial of its task and seed on its processor that did "
+        f"(`python studies/method/decided.py`; {len(rows)} such trials, any method or lever), the clean "
+        "trial that follows it longest (the hand within 0.01 rad and the object within 1 mm at every "
+        "sample): when their paths part, and when the failed trial's object first leaves the reference "
+        "(40 mm or 30° for 0.3 s, as the timelines read it), in s after the reference's first expected "
+        "contact, with the reference's lift (its free object 2 cm from where it starts).\n\n"
+        + pipe_table(cols, "llrrrrrrr", table)
+        + "\n"
+        + (
+            "; ".join(lines)
+            + ": from one approach and first touch, a seed both failed and finished cleanly, as the plans "
+            "after the first contact went.\n"
+            if lines
+            else ""
+        )
+        + (f"\n{link}\n" if link else "")
+    )
+
+
 GRASP_CONTACTS = "grasp_contacts.csv"
 #: the index alone on the object for more than this share of the grasp's window: "mostly alone"
 ALONE = 0.5
@@ -4181,6 +4292,13 @@ def report(study) -> str:
             "Not measured yet (`python studies/method/first_touch.py`).\n",
         )
         + links_screen()
+        + "\n## Where a seed's outcome is decided\n\n"
+        + from_figures(
+            study,
+            DECIDED,
+            lambda rows: decided(rows, study),
+            "Not measured yet (`python studies/method/decided.py`).\n",
+        )
         + "\n## Where the object rests before the hand arrives\n\n"
         + from_figures(study, SETTLES, settles, "Not run yet (`python studies/method/settle.py`).\n")
         + paced_lift(study, df)
