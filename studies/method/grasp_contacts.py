@@ -12,12 +12,14 @@ outcome. Writes ``figures/grasp_contacts.csv``, which the report reads:
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 from release_replay import series_rows  # this folder's script
 
-from analysis.timeline import link_names
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository's root: analysis/
+from analysis.timeline import link_names  # noqa: E402
 from contactmpc.labels import method_name
 
 HERE = Path(__file__).resolve().parent
