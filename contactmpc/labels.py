@@ -56,6 +56,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "grasp_held_retract": "full",
     "grasp_held_expected": "full",
     "grasp_held_expected_long": "full",
+    "grasp_held_expected_paced": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -137,6 +138,13 @@ NAMED_METHODS["grasp_held_expected_long"] = {
     **NAMED_METHODS["grasp_held_expected"],
     "variant": "grasp_held_expected_long",
     "effort": "acquire_long",
+}
+
+# grasp_held_expected whose reference waits for an object it is leaving behind
+NAMED_METHODS["grasp_held_expected_paced"] = {
+    **NAMED_METHODS["grasp_held_expected"],
+    "variant": "grasp_held_expected_paced",
+    "pacing": "lift",
 }
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}

@@ -125,8 +125,8 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
     # (wrist, wrist_clearance) or that are the project's methods (grasp_release and those that add groups
     # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased, grasp_held_eased_refined,
-    # grasp_held_retract, grasp_held_expected, grasp_held_expected_long)
-    assert len(VARIANTS) <= 15
+    # grasp_held_retract, grasp_held_expected, grasp_held_expected_long, grasp_held_expected_paced)
+    assert len(VARIANTS) <= 16
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -433,6 +433,23 @@ def test_effort_acquire_long_keeps_the_grasps_samples_for_4_s_after_the_first_co
     for variant in ("grasp_held_expected", "grasp_held_expected_long"):  # the lever's trials name the method
         assert labels.method_name({"variant": variant, **long_choices}) == "grasp_held_expected_long"
     assert _paper_apple("variant=grasp_held_expected_long") == (longer | {"planner": planner}, long_choices)
+
+
+def test_pacing_lift_is_pacing_hold_at_3_5_cm_and_names_the_paced_method():
+    """pacing=lift on grasp_held_expected: pacing=hold's wait with planner.pace_lag = 3.5 cm (hold's 2 cm),
+    nothing else differs; the method study's lever (pacing=hold planner.pace_lag=0.035) composes the same
+    trial, and variant=grasp_held_expected_paced composes exactly it and names it."""
+    named, _ = _paper_apple("variant=grasp_held_expected")
+    lift, lift_choices = _paper_apple("variant=grasp_held_expected", "pacing=lift")
+    lever, _ = _paper_apple("variant=grasp_held_expected", "pacing=hold", "planner.pace_lag=0.035")
+    assert lift == lever
+    planner, before = lift.pop("planner"), named.pop("planner")
+    assert lift == named
+    assert {k: v for k, v in planner.items() if before.get(k) != v} == {"pace_lag": 0.035}
+    paced, paced_choices = _paper_apple("variant=grasp_held_expected_paced")
+    assert paced == lift | {"planner": planner} and paced_choices == lift_choices
+    for variant in ("grasp_held_expected", "grasp_held_expected_paced"):  # the lever's trials name the method
+        assert labels.method_name({"variant": variant, **lift_choices}) == "grasp_held_expected_paced"
 
 
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():

@@ -78,6 +78,7 @@ ORDER = (
     "grasp_held_eased+rollout=fine_budget",
     "grasp_held_eased+rollout=fine",
     "grasp_held_eased+retarget=wrist",
+    "grasp_held_expected_paced",
     "grasp_held_expected_long",
     "grasp_held_expected",
     "grasp_held_retract",
@@ -236,8 +237,15 @@ def _lever_on_every_object(lever: str) -> dict[str, tuple[str, str]]:
 #: ``grasp_held_eased``, on the doorknob ``grasp_held_eased`` with the lever below.
 #: ``grasp_held_expected`` is ``grasp_held_retract`` with ``reuse=elites_expected``: on every object, that
 #: lever's trials; ``grasp_held_expected_long`` is ``grasp_held_expected`` with ``effort=acquire_long``.
+#: ``grasp_held_expected_paced`` is ``grasp_held_expected`` with ``pacing=lift`` (``pacing=hold`` at 3.5 cm):
+#: on a free object that lever's trials; on an object on joints a paced trial is the unpaced one
+#: (``tests/test_method_levers.py`` checks it bit for bit), so there ``grasp_held_expected``'s.
 EQUIVALENT = {
     "grasp_held_expected_long": _lever_on_every_object("effort=acquire_long variant=grasp_held_expected"),
+    "grasp_held_expected_paced": {
+        "free": ("levers", "pacing=hold planner.pace_lag=0.035 variant=grasp_held_expected"),
+        "joints": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
+    },
     "grasp_held_expected": _lever_on_every_object("reuse=elites_expected variant=grasp_held_retract"),
     "grasp_held_retract": {
         "free": ("records", "grasp_held_eased"),
@@ -1212,6 +1220,9 @@ LEVER_TEXT = {
     "planner.reuse_scaled=True": "the runners-up kept and carried in at `reuse=elites`'s share of a plan's "
     "samples (`planner.reuse_scaled`; the method's 8 whatever a plan's size): 32 of a grasp plan's 128, so "
     "a longer grasp window (`effort=acquire_long`) does not thin them out",
+    "planner.pace_lag=0.035": "`pacing=hold` waits only while the object is more than 3.5 cm from where "
+    "the reference has it (`planner.pace_lag`; the group's 2 cm, at which the apple's reference waited in "
+    "every paced trial: *The lift paced by the grasp*), so the lift waits where a grasp is losing the object",
     "planner.reuse=4": "4 of the last plan's runners-up carried into the next (`planner.reuse`; "
     "`reuse=elites`'s 8), so a plan of 32 samples draws 28 fresh",
     "sampler.release.hold=1.0": "the wrist held still from 1 s before the reference's last expected "
