@@ -770,7 +770,8 @@ def test_a_method_a_lever_stands_in_for_is_built_on_the_variant_it_names(monkeyp
     chain = ["grasp_held_expected", "grasp_held_retract", "grasp_held_eased"]
     assert spec.built_chain("grasp_held_expected") == chain
     assert spec.built_chain("grasp_held_expected_long") == ["grasp_held_expected_long", *chain]  # two levers
-    assert spec.METHOD in spec.built_chain("grasp_held_expected_long")
+    assert spec.built_chain("grasp_held_expected_paced") == ["grasp_held_expected_paced", *chain]
+    assert "grasp_held_expected" in spec.built_chain(spec.METHOD)
     assert spec.free_base() == "grasp_held_eased" == spec.free_base("grasp_held_eased")
     folders = [f"experiment=method,{lever.replace(' ', ',')},seed=0,task=paper_apple",
                "carry=held,experiment=method,seed=0,task=paper_apple"]  # fmt: skip
