@@ -984,6 +984,13 @@ def meets_target_chance(clean: int, unclean: int, failed: int) -> float:
     )
 
 
+def target_counts(trials: pd.DataFrame) -> tuple[int, int, int, float]:
+    """``(seeds, completed, clean, chance)`` of one method's ``trials`` on one task (a seed each): with
+    :func:`meets_target_chance` of their counts."""
+    n, done, clean = len(trials), int(trials["completed"].sum()), int(trials["finished_cleanly"].sum())
+    return n, done, clean, meets_target_chance(clean, done - clean, n - done)
+
+
 def needed_rate(k: int, odds: float = TARGET_ODDS) -> float:
     """The smallest rate at which at least ``k`` of :data:`TARGET_SEEDS` trials succeed with probability
     ``odds`` (binomial)."""
@@ -1006,9 +1013,8 @@ def target_odds(sweep: pd.DataFrame, held: pd.DataFrame) -> str:
         if not len(held) or not len(cell(held, task, METHOD)):
             continue
         g = cell(trials, task, METHOD).drop_duplicates("seed")
-        n, done, clean = len(g), int(g["completed"].sum()), int(g["finished_cleanly"].sum())
+        n, done, clean, chance = target_counts(g)
         ci = [wilson(k, n) for k in (done, clean)]
-        chance = meets_target_chance(clean, done - clean, n - done)
         rows.append(
             f"| {task} | {seeds(g['seed'])} | {of(done, n)} ({100 * ci[0][0]:.0f}-{100 * ci[0][1]:.0f} %) "
             f"| {of(clean, n)} ({100 * ci[1][0]:.0f}-{100 * ci[1][1]:.0f} %) | {100 * chance:.0f} % |"
@@ -1046,8 +1052,7 @@ def every_task_odds(sweep: pd.DataFrame, held: pd.DataFrame, study=None) -> str:
             g = cell(trials, task, method).drop_duplicates("seed")
             if len(g) < TARGET_SEEDS:
                 break
-            n, done, clean = len(g), int(g["completed"].sum()), int(g["finished_cleanly"].sum())
-            chance = meets_target_chance(clean, done - clean, n - done)
+            n, done, clean, chance = target_counts(g)
             joint *= chance
             cells.append(f"{done} / {clean} of {n} ({100 * chance:.0f} %)")
             counts.append((task, n, done, clean))
