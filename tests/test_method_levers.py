@@ -724,11 +724,54 @@ def assert_unpaced(base, paced) -> None:
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
 
 
+def test_acquire_waiting_keeps_the_grasps_samples_while_the_paced_reference_waits(scene_for):
+    """planner.acquire_waiting: after the acquire window, a plan that takes effect while the paced
+    reference's clock is held draws acquire_samples; once the clock runs on, num_samples again. Off, the
+    held plan draws num_samples; in the window both draw acquire_samples. Without a paced reference (or
+    without acquire_samples) it is refused."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:4] = False  # first expected contact at 0.8 s of control time
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    args = dict(num_samples=4, horizon=0.2, nthread=1, acquire_samples=9, acquire_until=0.1, pace_lag=0.02)
+    on, off = PredictiveSampling(**args, acquire_waiting=True), PredictiveSampling(**args)
+    m = scene.planner_model
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    state[1 : 1 + m.nq] = m.qpos0
+    at_rest = problem.track.object_qpos[0]
+    lagging = at_rest.copy()
+    lagging[2] -= 0.05  # 5 cm below the reference's object: the clock holds
+
+    def at(qo):
+        state[1 + scene.index.object_qpos] = qo
+        return state.copy()
+
+    for planner in (on, off):
+        planner.bind(problem)
+    # (control time, the object, samples on, samples off): in the window, held after it, running after it
+    for k, (t, qo, want_on, want_off) in enumerate(
+        ((0.85, at_rest, 9, 9), (1.2, lagging, 9, 4), (1.3, lagging, 9, 4), (1.4, at_rest, 4, 4))
+    ):
+        got_on = on.plan(t, at(qo), np.random.default_rng(k))
+        got_off = off.plan(t, at(qo), np.random.default_rng(k))
+        assert (got_on.samples, got_off.samples) == (want_on, want_off), t
+        assert on.waiting(t) == off.waiting(t) == (qo is lagging), t  # the same clock either way
+    for planner in (on, off):
+        planner.close()
+    with pytest.raises(ConfigError, match="acquire_waiting.*pace_lag"):
+        PredictiveSampling(acquire_samples=9, acquire_waiting=True)
+    with pytest.raises(ConfigError, match="acquire_waiting.*acquire_samples"):
+        PredictiveSampling(pace_lag=0.02, acquire_waiting=True)
+
+
 def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_path, late_contact_reference):
     """pacing=hold on a reference whose object rises while the tiny planner cannot lift it: the reference's
     clock falls behind only after the first expected contact, by at most the budget, the trial runs the
-    budget longer, and the log reads the reference at the reference's time; planner.pace_turn runs with it.
-    With no budget it never waits: the trial of pacing=none, bit for bit."""
+    budget longer, and the log reads the reference at the reference's time; planner.pace_turn and
+    effort=acquire_waiting run with it. With no budget it never waits: the trial of pacing=none, bit for
+    bit."""
     overrides = late_apple(late_contact_reference)
     base = run_job(overrides, tmp_path / "off")
     paced = run_job(
@@ -754,6 +797,10 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
     assert turned["status"] == "ok" and turned["config"]["planner"]["pace_turn"] == 1.0
     never = run_job(overrides + ["pacing=hold", "planner.pace_budget=0"], tmp_path / "never")
     assert_unpaced(base, never)
+    hold = ["pacing=hold", "planner.pace_lag=0.01", "planner.pace_budget=0.3", "planner.acquire_samples=6"]
+    waiting = run_job(overrides + hold + ["effort=acquire_waiting"], tmp_path / "waiting")
+    record = json.loads(waiting.read_text())  # (the grasp's samples while it waits)
+    assert record["status"] == "ok" and record["config"]["planner"]["acquire_waiting"] is True
 
 
 def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_files, scene_for):

@@ -138,6 +138,12 @@ class Planner:
             keeps the grasp's samples until it has closed, and one it closes at once (the apple's) keeps
             them about as long as from its first contact; 0 (the default): from the first expected
             contact. A reference that never expects that many: from the first expected contact.
+        acquire_waiting: with ``acquire_samples`` and a paced reference (``pace_lag``), a plan that takes
+            effect while the reference's clock is held draws ``acquire_samples`` (and plans over
+            ``acquire_horizon``) after the window too (not the paper's): a lift that waits for the grasp
+            (the stapler's, which waits from 2.2 s after its first expected contact, the window's 2 s
+            over) keeps the grasp's samples while it waits. No plan draws more than ``acquire_samples``;
+            a latency model already prices every plan at the dearer phase's.
         acquire_horizon: the horizon (s) of the plans in that window, the grasp's (not the paper's): a
             plan there rolls out and scores this much of the reference, so its samples cost
             ``acquire_horizon / horizon`` of a full plan's; ``None`` (the paper): ``horizon`` throughout. A
@@ -286,6 +292,7 @@ class Planner:
         acquire_samples: Annotated[int, Ge(1)] | None = None,
         acquire_until: float = 2.0,
         acquire_grasp: Annotated[int, Ge(0)] = 0,
+        acquire_waiting: bool = False,
         acquire_horizon: Annotated[float, Gt(0)] | None = None,
         step_budget: Annotated[int, Ge(1)] | None = None,
         approach_reset: Annotated[float, Ge(0)] | None = None,
@@ -394,6 +401,12 @@ class Planner:
         self.acquire_until = float(acquire_until)
         self.acquire_grasp = int(acquire_grasp)
         self._acquire_from: float | None = None  # (acquire_grasp) reference time of the reference's grasp
+        if acquire_waiting and (acquire_samples is None or pace_lag is None):
+            raise ConfigError(
+                "planner.acquire_waiting keeps the grasp's samples while a paced reference waits: set "
+                "planner.acquire_samples and planner.pace_lag"
+            )
+        self.acquire_waiting = bool(acquire_waiting)
         self.acquire_horizon = None if acquire_horizon is None else float(acquire_horizon)
         self._horizon_now = self.horizon  # the horizon of the plan being made (horizon_at)
         self.step_budget = None if step_budget is None else int(step_budget)
@@ -953,8 +966,13 @@ class Planner:
         if self.grip is not None and self.grip.during == "touched":
             self.touch(s, state)
         self.phase(s, prediction)
-        self._at_horizon(self.horizon_at(s))
-        self._plan_samples = self.samples_at(s)
+        if self.acquire_waiting and not self.acquiring(s) and self.waiting(takes_effect):
+            # (acquire_waiting) the reference waits for the grasp: the grasp's samples and horizon
+            self._at_horizon(self.horizon if self.acquire_horizon is None else self.acquire_horizon)
+            self._plan_samples = self._budgeted(self.acquire_samples)
+        else:
+            self._at_horizon(self.horizon_at(s))
+            self._plan_samples = self.samples_at(s)
         if self.reuse and (self.reuse_fingers or not self.reuse_alone):
             fingers = self.fingers_touching(state)
             self._reuse_gate = fingers >= self.reuse_fingers and (self.reuse_alone or fingers != 1)
