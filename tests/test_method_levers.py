@@ -806,7 +806,7 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
 def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_files, scene_for):
     """pacing=release_turn on the doorknob, whose object has no free body to wait for: the reference never
     waits and the trial runs no longer: pacing=none's trial bit for bit (its log adds the reference's time,
-    the control time's)."""
+    the control time's); so is pacing=lift with effort=acquire_waiting effort=acquire's."""
     assert not scene_for("doorknob").task.layout.free_columns
     overrides = ["task=doorknob", f"task.reference_path={reference_files['doorknob']}", *TINY]
     overrides += ["job.progress=false"]
@@ -816,6 +816,11 @@ def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_fil
     assert on["status"] == "ok" and on["config"]["planner"]["pace_turn"] == 1.0
     assert on["simulated_seconds"] == off["simulated_seconds"] and on["num_plans"] == off["num_plans"]
     assert_unpaced(base, paced)
+    few = "planner.acquire_samples=4"  # (the grasp's samples kept while it waits)
+    base = run_job(overrides + ["effort=acquire", few], tmp_path / "acquire")
+    waiting = run_job(overrides + ["pacing=lift", "effort=acquire_waiting", few], tmp_path / "waiting")
+    assert json.loads(waiting.read_text())["config"]["planner"]["acquire_waiting"] is True
+    assert_unpaced(base, waiting)
 
 
 def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for):
