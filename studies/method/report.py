@@ -2008,14 +2008,18 @@ def grasp_waits(record_path) -> tuple[float, float, float, float] | None:
 
 
 def _paced_levers(study, chosen: pd.DataFrame, kind: str):
-    """The lever trials whose ``pacing`` member names ``kind`` (``"release"``: the release paced, ``"hold"``:
-    the grasp), as ``(trials, each lever's method, each lever's name as the levers' table has it, whether
-    the method finished cleanly per (method, task, seed), stand-ins counted in)``; ``None`` without any."""
+    """The lever trials whose ``pacing`` member (as their record composed it) names ``kind`` (``"release"``:
+    the release paced, ``"hold"``: the grasp, ``lift`` too), as ``(trials, each lever's method, each lever's
+    name as the levers' table has it, whether the method finished cleanly per (method, task, seed),
+    stand-ins counted in)``; ``None`` without any."""
     ok = lever_frame(study)
     if not len(ok):
         return None
     bases, named = lever_names(ok)  # (as the levers' table names them)
-    ok = ok[[any(p.startswith("pacing=") and kind in p for p in lever.split()) for lever in ok["lever"]]]
+    # the pacing its record composed (a lever on a paced method names none: pacing=lift is hold's, at 3.5 cm)
+    kinds = (kind, "lift") if kind == "hold" else (kind,)
+    paced = ok["pacing"].astype(str) if "pacing" in ok else pd.Series("", index=ok.index)
+    ok = ok[[any(k in p for k in kinds) for p in paced]]
     if not len(ok):
         return None
     every = with_heldout(study, chosen)
@@ -2086,9 +2090,10 @@ def paced_lift(study, chosen: pd.DataFrame) -> str:
             "the method it is on, that seed")  # fmt: skip
     return (
         "\n## The lift paced by the grasp\n\n"
-        "Each lever trial whose reference waits for the grasp (`pacing=hold*`: from the first expected "
-        "contact, while the object is more than 2 cm from where the reference has it, its clock holds, up "
-        "to 3 s; with `hold_release_turn` until the release's window, which has a budget of its own), from "
+        "Each lever trial whose reference waits for the grasp (`pacing=hold*`, or `pacing=lift` in the "
+        "method it is on: from the first expected contact, while the object is more than 2 cm (`lift`: "
+        "3.5 cm) from where the reference has it, its clock holds, up to 3 s; with `hold_release_turn` until "
+        "the release's window, which has a budget of its own), from "
         "its time series: how long the reference's clock held before the release's window, the reference's "
         "time where it first held (after its first expected contact), the object's position error there "
         "and where the grasp's last wait ended, how the trial ended, and how the method's trial on that "
