@@ -193,7 +193,7 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
     """Every record of the study (or only those of its ``folder``: :data:`HELDOUT`), the task without
     ``paper_``, with ``counted`` (status ok or diverged: a trial that ran, a diverged one not completed),
     boolean ``completed``, ``finished_cleanly`` and ``failed``, and the object errors in each task's kind
-    (:func:`analysis.release.with_errors`); of :data:`LEVERS`, each trial's ``lever`` (:func:`lever_of`)."""
+    (:func:`analysis.release.with_errors`)."""
     df = study.records() if folder is None else study.records(f"{study.dir.name}/{folder}", own=False)
     if not len(df):
         return df.assign(record_path=[], seed=[], counted=[], completed=[], finished_cleanly=[])
@@ -208,15 +208,13 @@ def frame(study, folder: str | None = None) -> pd.DataFrame:
         df[c] = pd.to_numeric(df[c] if c in df else pd.Series(math.nan, index=df.index), errors="coerce")
     df = release.with_errors(df)
     df = df if folder is not None else with_equivalents(study, df)
-    if folder == LEVERS:  # a lever trial's overrides (lever_of), read once
-        df = df.assign(lever=[lever_of(p) for p in df["record_path"]])
     # the cost columns compare CPU seconds on one processor only (its family and model, as the host names
     # it): per method and task, the one most of its trials ran on (of the levers', per lever: one setting a
     # value no group names, planner.reuse_grasp=4, runs another config under the same method's name)
     df = df.copy()
     df["cost_processor"] = None
     if PROCESSOR in df and len(df):
-        by = [df["task"], df["variant"]] + ([df["lever"]] if folder == LEVERS else [])
+        by = [df["task"], df["variant"]] + ([df["record_path"].map(lever_of)] if folder == LEVERS else [])
         for _, g in df.groupby(by, dropna=False):
             df.loc[g.index, "cost_processor"] = cost_processor(g)
     df["cpu_seconds"] = df["cpu_seconds"].where(
@@ -1267,12 +1265,12 @@ def lever_frame(study) -> pd.DataFrame:
     if not len(ok):
         return ok.assign(lever=[], seeds=[], on=[])
     half = np.where(ok["seed"].isin(plan()[1]), "sweep", "held out")
-    levers = list(ok["lever"])
+    levers = [lever_of(p) for p in ok["record_path"]]
     # the method it is on: the variant its overrides name, else the one its name starts with (a lever that
     # makes a named method, reuse=elites_expected variant=grasp_held_retract, is on the variant it names)
     named = [lever_variant(lever) for lever in levers]
     prefix = ok["variant"].astype(str).str.split("+").str[0]
-    return ok.assign(seeds=half, on=[n or p for n, p in zip(named, prefix, strict=True)])
+    return ok.assign(lever=levers, seeds=half, on=[n or p for n, p in zip(named, prefix, strict=True)])
 
 
 def _lever_text(lever: str) -> str:
