@@ -1619,6 +1619,28 @@ def test_the_latency_s_demand_on_the_machine_is_read_from_the_records_and_the_be
     assert spec.threads_needed(study, records[2:], ok, 170.0) == ""  # a held-out seed only
 
 
+def test_the_method_study_finds_paced_levers_by_the_pacing_their_record_composed(monkeypatch) -> None:
+    """_paced_levers reads a lever trial's pacing from its record, not its overrides: a lever on a paced
+    method (effort=acquire_waiting on grasp_held_expected_paced: pacing=lift, a grasp wait) is among the
+    grasp's, as pacing=hold's are; pacing=release_turn's among the release's; an unpaced lever in neither."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    levers = {
+        "pacing=hold planner.pace_lag=0.035 variant=grasp_held_expected": "hold",
+        "effort=acquire_waiting variant=grasp_held_expected_paced": "lift",
+        "pacing=release_turn variant=grasp_held_retract": "release_turn",
+        "carry=held": "none",
+    }
+    ok = pd.DataFrame([dict(lever=k, pacing=v, task="stapler", seed=0) for k, v in levers.items()])
+    monkeypatch.setattr(spec, "lever_frame", lambda study: ok)
+    monkeypatch.setattr(spec, "lever_names", lambda ok: ({k: "m" for k in levers}, {k: k for k in levers}))
+    monkeypatch.setattr(spec, "with_heldout", lambda study, chosen: pd.DataFrame(
+        [], columns=["variant", "task", "seed", "finished_cleanly"]))  # fmt: skip
+    grasp, release = (spec._paced_levers(None, None, k)[0]["lever"].tolist() for k in ("hold", "release"))
+    assert grasp == list(levers)[:2] and release == list(levers)[2:3]
+
+
 def test_the_method_study_splits_a_paced_trials_waits_into_the_grasps_and_the_releases(tmp_path) -> None:
     """grasp_waits: the reference's waits before the release's window (pace_window from the last expected
     contact, read from the record): how long, when the first began after the first expected contact, the
