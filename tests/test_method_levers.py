@@ -797,10 +797,16 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
     assert turned["status"] == "ok" and turned["config"]["planner"]["pace_turn"] == 1.0
     never = run_job(overrides + ["pacing=hold", "planner.pace_budget=0"], tmp_path / "never")
     assert_unpaced(base, never)
-    hold = ["pacing=hold", "planner.pace_lag=0.01", "planner.pace_budget=0.3", "planner.acquire_samples=6"]
+    # the grasp's 6 samples until 0.05 s after the first expected contact, and (on) while the reference waits
+    # (2.5 cm behind, from 0.2 s after it: past the window); off, effort=acquire's trial bit for bit
+    hold = ["pacing=hold", "planner.pace_lag=0.025", "planner.pace_budget=0.3", "planner.acquire_samples=6"]
+    hold += ["planner.acquire_until=0.05"]
     waiting = run_job(overrides + hold + ["effort=acquire_waiting"], tmp_path / "waiting")
-    record = json.loads(waiting.read_text())  # (the grasp's samples while it waits)
+    record = json.loads(waiting.read_text())
     assert record["status"] == "ok" and record["config"]["planner"]["acquire_waiting"] is True
+    acquire = run_job(overrides + hold + ["effort=acquire"], tmp_path / "acquire")
+    off = ["effort=acquire_waiting", "planner.acquire_waiting=false"]
+    assert_same_series(acquire, run_job(overrides + hold + off, tmp_path / "off_waiting"))  # bit for bit
 
 
 def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_files, scene_for):
