@@ -7,7 +7,8 @@ sampled | acquire | carry``), ``shaping`` (``none | surface | clearance | cleara
 ``effort`` (``uniform | acquire | acquire_half | acquire_short | acquire_long | acquire_grasped |
 acquire_waiting``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | lift | release | ...``),
 ``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze | carried | touched``), ``retarget``
-(``none | wrist``), ``rollout`` (``paper | fine``) and ``reuse`` (``none | elites | elites_expected | elites_grasped | ...``).
+(``none | wrist``), ``rollout`` (``paper | fine``) and ``reuse`` (``none | elites | elites_expected |
+elites_grasped | ...``).
 Records made before the groups existed name the combination by one variant label (``variant:
 release_flat``); records made before the release schedule was one object store its options as flat sampler
 keys (``sampler.release_pause``); records made before a group existed read as its default.

@@ -141,9 +141,8 @@ class Planner:
         acquire_waiting: with ``acquire_samples`` and a paced reference (``pace_lag``), a plan that takes
             effect while the reference's clock is held draws ``acquire_samples`` (and plans over
             ``acquire_horizon``) after the window too (not the paper's): a lift that waits for the grasp
-            (the stapler's, which waits from 2.2 s after its first expected contact, the window's 2 s
-            over) keeps the grasp's samples while it waits. No plan draws more than ``acquire_samples``;
-            a latency model already prices every plan at the dearer phase's.
+            once the window is over keeps the grasp's samples while it waits. No plan draws more than
+            ``acquire_samples``; a latency model already prices every plan at the dearer phase's.
         acquire_horizon: the horizon (s) of the plans in that window, the grasp's (not the paper's): a
             plan there rolls out and scores this much of the reference, so its samples cost
             ``acquire_horizon / horizon`` of a full plan's; ``None`` (the paper): ``horizon`` throughout. A
