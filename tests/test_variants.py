@@ -61,7 +61,11 @@ HAS_PAPER_DATA = bool(PAPER_DATA and Path(PAPER_DATA, "allegro").is_dir())
 VARIANTS = sorted(p.stem for p in (CONF_DIR / "variant").glob("*.yaml"))
 GROUP_MEMBERS = [(g, p.stem) for g in labels.GROUPS for p in sorted((CONF_DIR / g).glob("*.yaml"))]
 # the members that set an option of another group's object, with a member of that group to set it on
-NEEDS = {("place", "wrist"): ("release=flat",), ("rollout", "fine_until_held"): ("carry=held",)}
+NEEDS = {
+    ("place", "wrist"): ("release=flat",),
+    ("rollout", "fine_until_held"): ("carry=held",),
+    ("effort", "acquire_waiting"): ("pacing=lift",),
+}
 # the members that change the authors' demonstration: planned on a paper task (skipped without the data)
 PAPER_ONLY = {("retarget", "wrist")}
 EXPERIMENTS = sorted(p.stem for p in (CONF_DIR / "experiment").glob("*.yaml"))
