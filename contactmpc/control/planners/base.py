@@ -965,13 +965,9 @@ class Planner:
         if self.grip is not None and self.grip.during == "touched":
             self.touch(s, state)
         self.phase(s, prediction)
-        if self.acquire_waiting and not self.acquiring(s) and self.waiting(takes_effect):
-            # (acquire_waiting) the reference waits for the grasp: the grasp's samples and horizon
-            self._at_horizon(self.horizon if self.acquire_horizon is None else self.acquire_horizon)
-            self._plan_samples = self._budgeted(self.acquire_samples)
-        else:
-            self._at_horizon(self.horizon_at(s))
-            self._plan_samples = self.samples_at(s)
+        grasp = self.acquire_waiting and self.waiting(takes_effect)  # (the reference waits for the grasp)
+        self._at_horizon(self.horizon_at(s, grasp))
+        self._plan_samples = self.samples_at(s, grasp)
         if self.reuse and (self.reuse_fingers or not self.reuse_alone):
             fingers = self.fingers_touching(state)
             self._reuse_gate = fingers >= self.reuse_fingers and (self.reuse_alone or fingers != 1)
@@ -1015,10 +1011,11 @@ class Planner:
         error = layout.error(self.object_qpos(state), expected)
         return float(error.position), float(error.rotation)
 
-    def samples_at(self, t: float) -> int:
+    def samples_at(self, t: float, waiting: bool = False) -> int:
         """The samples a plan at control time ``t`` draws: ``acquire_samples`` until ``acquire_until``
-        after the first expected contact, else ``num_samples``; either cut to ``step_budget``."""
-        acquiring = self.acquire_samples is not None and self.acquiring(t)
+        after the first expected contact (or, ``waiting``, where it takes effect while a paced reference
+        waits: ``acquire_waiting``), else ``num_samples``; either cut to ``step_budget``."""
+        acquiring = self.acquire_samples is not None and (waiting or self.acquiring(t))
         return self._budgeted(self.acquire_samples if acquiring else self.num_samples)
 
     def acquiring(self, t: float) -> bool:
@@ -1050,11 +1047,11 @@ class Planner:
             return True
         return t >= first + self.reuse_after - 1e-9
 
-    def horizon_at(self, t: float) -> float:
+    def horizon_at(self, t: float, waiting: bool = False) -> float:
         """The horizon (s) of a plan at reference time ``t``: ``acquire_horizon`` where
         :meth:`samples_at` draws ``acquire_samples`` (until ``acquire_until`` after the first expected
-        contact), else ``horizon``."""
-        acquiring = self.acquire_horizon is not None and self.acquiring(t)
+        contact, or ``waiting``), else ``horizon``."""
+        acquiring = self.acquire_horizon is not None and (waiting or self.acquiring(t))
         return self.acquire_horizon if acquiring else self.horizon
 
     def _at_horizon(self, horizon: float) -> None:
