@@ -1068,6 +1068,35 @@ def test_the_method_study_reads_the_replayed_lifts_per_task_and_planning_model()
     assert spec.lift_replays(df.iloc[0:0]) == ""
 
 
+def test_the_method_study_reads_the_planning_models_physics_per_task_and_over_them() -> None:
+    """model_physics: per planning model, per task and over the tasks, its lifts of the plant's lifts, its
+    lifts of the others and its agreement with the plant, and its CPU against the 10 ms model's; the closing
+    reading names the best option at 10 ms and says whether it reaches the finer step's agreement."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    plant = [True, True, True, False]
+    rows = [("plant", 0.001, plant, 9.0), ("10 ms", 0.01, [True, False, False, False], 1.0),
+            ("10 ms, friction x2", 0.01, [True, True, False, True], 1.0),
+            ("5 ms", 0.005, [True, True, True, False], 2.0)]  # fmt: skip
+    df = pd.DataFrame([
+        {"task": task, "seed": i, "model": m, "step": st, "lifted": lifted[i], "cpu": cpu,
+         "before": 0.3, "after": 3.5}
+        for task in ("paper_stapler", "paper_apple")
+        for m, st, lifted, cpu in rows for i in range(4)])  # fmt: skip
+    text = spec.model_physics(df)
+    assert "| planning model | apple | stapler | all | CPU |" in text  # the tasks in the study's order
+    assert "| 10 ms | 1/3; 0/1; 2/4 | 1/3; 0/1; 2/4 | 2/6; 0/2; 4/8 | 1.00x |" in text
+    assert "| 10 ms, friction x2 | 2/3; 1/1; 2/4 | 2/3; 1/1; 2/4 | 4/6; 2/2; 4/8 | 1.00x |" in text
+    assert "| 5 ms | 3/3; 0/1; 4/4 | 3/3; 0/1; 4/4 | 6/6; 0/2; 8/8 | 2.00x |" in text
+    assert "the best option at 10 ms (`10 ms, friction x2`) on 4, and the model stepped at 5 ms on 8" in text
+    assert "no physics option tried at 10 ms agrees with the plant as often as the finer step" in text
+    fair = df.copy()  # an option that agrees as the finer step does
+    fair.loc[fair["model"] == "10 ms, friction x2", "lifted"] = plant * 2
+    assert "`10 ms, friction x2` agrees with the plant as often as the finer step" in spec.model_physics(fair)
+    assert spec.model_physics(df.iloc[0:0]) == ""
+
+
 def test_the_method_study_bins_the_trials_by_when_the_hand_first_touched_the_object() -> None:
     """first_touches: per task, of the trials with the clearance term, lifted / completed / clean and the
     median displacement per bin of the first touch (s after the first expected contact), the doorknob's

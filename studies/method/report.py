@@ -2952,6 +2952,70 @@ def finer_models(df: pd.DataFrame) -> str:
     )
 
 
+PHYSICS = "model_physics.csv"
+
+
+def model_physics(rows: pd.DataFrame) -> str:
+    """What the replays of :data:`PHYSICS` (``studies/method/model_physics.py``; rows: ``task``, ``seed``,
+    ``model``, ``step``, ``lifted``, ``cpu``, ``before``, ``after``) say: per planning model (the method's
+    10 ms, it with each physics option, 5 ms), of the replays the plant lifts, how many it lifts too, of
+    the others, how many it lifts, on how many trials it agrees with the plant, per task and over them,
+    and its replay's CPU against the 10 ms model's; then whether any option at 10 ms agrees as often as
+    the finer step."""
+    if not len(rows):
+        return ""
+    before, after = rows["before"].iloc[0], rows["after"].iloc[0]
+    tasks = ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER])
+    plant = rows[rows["model"] == "plant"].set_index(["task", "seed"])["lifted"].astype(bool)
+    base_cpu = rows[rows["model"] == "10 ms"].groupby("task")["cpu"].median()
+    agree: dict[str, int] = {}
+    body = []
+    for model, g in rows[rows["model"] != "plant"].groupby("model", sort=False):
+        lifted = g.set_index(["task", "seed"])["lifted"].astype(bool).reindex(plant.index, fill_value=False)
+        cells = []
+        for task in [*tasks, None]:
+            at = plant.index.get_level_values("task") == task if task else np.ones(len(plant), bool)
+            p, m = plant[at], lifted[at]
+            cells.append(
+                f"{int((m & p).sum())}/{int(p.sum())}; {int((m & ~p).sum())}/{int((~p).sum())}; "
+                f"{int((m == p).sum())}/{len(p)}"
+            )
+        agree[model] = int((lifted == plant).sum())
+        cpu = float((g.groupby("task")["cpu"].median() / base_cpu).median())
+        body.append(f"| {model} | " + " | ".join(cells) + f" | {cpu:.2f}x |")
+    names = [t.removeprefix("paper_") for t in tasks]
+    out = (
+        f"Can the planning model keep its 10 ms step and hold the grasps the plant holds? Each of "
+        f"`{METHOD}`'s held-out trials on the free objects replayed open-loop as above "
+        f"(`python studies/method/model_physics.py`: from {before:g} s before its contact span to "
+        f"{after:g} s after it, its recorded hand targets), in the plant, in the method's planning model "
+        "(10 ms), in that model with one physics option at a time (set on the planning model only; none "
+        "is an option of the library), and in the model stepped at 5 ms. Each cell: of the replays the "
+        "plant lifts, how many the model lifts too; of the others, how many it lifts; on how many it agrees "
+        "with the plant; the last column, the CPU of a replay against the 10 ms model's (median over the "
+        "tasks' medians).\n\n"
+        + pipe_table(["planning model", *names, "all", "CPU"], "l" + "r" * (len(names) + 2), body)
+    )
+    options = {m: a for m, a in agree.items() if m.startswith("10 ms, ")}
+    fine = {m: a for m, a in agree.items() if not m.startswith("10 ms")}
+    if options and fine and "10 ms" in agree:
+        best = max(options, key=options.get)
+        step, fine_agree = max(fine.items(), key=lambda kv: kv[1])
+        verdict = (
+            "no physics option tried at 10 ms agrees with the plant as often as the finer step does; what "
+            "the coarse model loses, these options do not win back"
+            if options[best] < fine_agree
+            else f"`{best}` agrees with the plant as often as the finer step: a 10 ms model worth trying in "
+            "full trials"
+        )
+        out += (
+            f"\nOver the {len(plant)} replays, the 10 ms model agrees with the plant on {agree['10 ms']}, "
+            f"the best option at 10 ms (`{best}`) on {options[best]}, and the model stepped at {step} on "
+            f"{fine_agree}: {verdict}.\n"
+        )
+    return out
+
+
 PLAN_COSTS = "plan_benchmark.csv"
 
 
@@ -4284,6 +4348,8 @@ def report(study) -> str:
         + "\n## The planning model and the lift\n\n"
         + from_figures(study, LIFTS, lift_replays, "Not replayed yet.\n")
         + finer_models(df)
+        + "\n## The planning model's physics\n\n"
+        + from_figures(study, PHYSICS, model_physics, "Not replayed yet.\n")
         + "\n## What a plan costs with each planning model\n\n"
         + from_figures(
             study,
