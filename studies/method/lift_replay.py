@@ -61,6 +61,14 @@ def replay(scene, model: mujoco.MjModel, series, start: float, end: float) -> tu
     return np.array(times), np.array(heights)
 
 
+def window(record: dict, series) -> tuple[float, float, float]:
+    """``(start, end, z0)``: a replay's window of a trial (from :data:`BEFORE` s before its contact span
+    starts to :data:`AFTER` s after) and the object's height at its start (m)."""
+    span = record["contact_span_start"]
+    start, end = span - BEFORE, span + AFTER
+    return start, end, float(series["object_qpos"][int(np.searchsorted(series["time"], start)), 2])
+
+
 def figure(curves: dict, path: Path, task: str) -> None:
     """Per trial of ``task``, the object's height above its start in each replay."""
     import matplotlib.pyplot as plt
@@ -105,9 +113,8 @@ def main() -> int:
         if record.get("task") not in TASKS or not series_path.is_file() or method_name(record) != METHOD:
             continue
         series = np.load(series_path)
+        start, end, z0 = window(record, series)
         span = record["contact_span_start"]
-        start, end = span - BEFORE, span + AFTER
-        z0 = float(series["object_qpos"][int(np.searchsorted(series["time"], start)), 2])
         runs = []
         for step in PLANNER_STEPS:
             scene = scene_of(record, paper_data, planner_timestep=step)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from lift_replay import AFTER, BEFORE, LIFT, TASKS, replay  # this folder's scripts
+from lift_replay import AFTER, BEFORE, LIFT, TASKS, replay, window  # this folder's scripts
 from release_replay import scene_of, write_rows
 
 from contactmpc.labels import method_name
@@ -106,9 +106,7 @@ def main() -> int:
         if record.get("task") not in TASKS or not series_path.is_file() or method_name(record) != METHOD:
             continue
         series = np.load(series_path)
-        span = record["contact_span_start"]
-        start, end = span - BEFORE, span + AFTER
-        z0 = float(series["object_qpos"][int(np.searchsorted(series["time"], start)), 2])
+        start, end, z0 = window(record, series)
         scene = scene_of(record, paper_data)
         for name, step, model in runs(scene):
             began = time.process_time()
