@@ -1097,6 +1097,22 @@ def test_the_method_study_reads_the_planning_models_physics_per_task_and_over_th
     assert spec.model_physics(df.iloc[0:0]) == ""
 
 
+def test_the_method_study_says_where_a_lost_object_lies_per_task() -> None:
+    """failed_rest: per task, the lost trials, those never lifted, the medians and 90th percentiles of the
+    move and the turn, and how many lie within 20 mm of their start, and within 20 mm and 15 degrees."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    moves = [(10.0, 5.0, False), (15.0, 40.0, True), (100.0, 5.0, False), (200.0, 170.0, False)]
+    df = pd.DataFrame([
+        {"task": task, "seed": i, "moved": m, "rose": 0.0, "turned": t, "lifted": lifted}
+        for task in ("paper_stapler", "paper_apple") for i, (m, t, lifted) in enumerate(moves)])  # fmt: skip
+    text = spec.failed_rest(df)
+    assert text.index("| apple |") < text.index("| stapler |")  # the tasks in the study's order
+    assert "| stapler | 4 | 3 | 58 / 170 | 22 / 131 | 2 | 1 |" in text
+    assert spec.failed_rest(df.iloc[0:0]) == ""
+
+
 def test_the_method_study_bins_the_trials_by_when_the_hand_first_touched_the_object() -> None:
     """first_touches: per task, of the trials with the clearance term, lifted / completed / clean and the
     median displacement per bin of the first touch (s after the first expected contact), the doorknob's

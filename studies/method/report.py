@@ -3016,6 +3016,54 @@ def model_physics(rows: pd.DataFrame) -> str:
     return out
 
 
+FAILED_REST = "failed_rest.csv"
+#: A lost object "where the reference expects it": moved at most this far across the table (m) and turned at
+#: most this much (deg) from its start, so the reference's approach and grasp would meet it again.
+REST_MOVE, REST_TURN = 0.02, 15.0
+
+
+def failed_rest(rows: pd.DataFrame) -> str:
+    """Where the free objects lie once their trials have lost them (:data:`FAILED_REST`'s rows: ``task``,
+    ``lifted``, ``moved`` (mm) and ``turned`` (deg) from the trial's start, read ``failed_rest.AFTER`` s
+    after the failure; ``studies/method/failed_rest.py``): per task, the medians and 90th percentiles, and
+    how many lie within :data:`REST_MOVE` of where they started, and also within :data:`REST_TURN`."""
+    if not len(rows):
+        return ""
+    body = []
+    for task in ordered(rows["task"].unique(), [f"paper_{t}" for t in TASK_ORDER]):
+        g = rows[rows["task"] == task]
+        near = g["moved"] <= 1e3 * REST_MOVE
+        body.append(
+            f"| {task.removeprefix('paper_')} | {len(g)} | {int((~g['lifted'].astype(bool)).sum())} | "
+            f"{g['moved'].median():.0f} / {g['moved'].quantile(0.9):.0f} | "
+            f"{g['turned'].median():.0f} / {g['turned'].quantile(0.9):.0f} | {int(near.sum())} | "
+            f"{int((near & (g['turned'] <= REST_TURN)).sum())} |"
+        )
+    move, turn = f"{1e3 * REST_MOVE:.0f} mm", f"{REST_TURN:.0f}°"
+    return (
+        "Could a lost grasp be tried again from the reference's approach? Every kept trial of the levers "
+        "and the held-out seeds on a free object that did not complete (`python studies/method/"
+        "failed_rest.py`; every option): the object 1 s after the trial's failure time, against where it "
+        "started: how far it moved across the table and how far it turned (median / 90th percentile), and "
+        f"on how many it lies within {move} of its start, and within {move} and {turn} (where the "
+        "reference's approach would meet it again; the apple is a sphere, whose turn does not stop a "
+        "grasp).\n\n"
+        + pipe_table(
+            [
+                "task",
+                "lost",
+                "never lifted",
+                "moved (mm)",
+                "turned (deg)",
+                f"within {move}",
+                f"within {move} and {turn}",
+            ],
+            "lrrrrrr",
+            body,
+        )
+    )
+
+
 PLAN_COSTS = "plan_benchmark.csv"
 
 
@@ -4385,6 +4433,10 @@ def report(study) -> str:
             DECIDED,
             lambda rows: decided(rows, study),
             "Not measured yet (`python studies/method/decided.py`).\n",
+        )
+        + "\n## Where a lost object lies\n\n"
+        + from_figures(
+            study, FAILED_REST, failed_rest, "Not measured yet (`python studies/method/failed_rest.py`).\n"
         )
         + "\n## Where the object rests before the hand arrives\n\n"
         + from_figures(study, SETTLES, settles, "Not run yet (`python studies/method/settle.py`).\n")
