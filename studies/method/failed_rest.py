@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from release_replay import write_rows  # this folder's script
+from release_replay import series_rows  # this folder's script
 
 from contactmpc.labels import method_name
 
@@ -42,30 +42,20 @@ def rest(record: dict, series) -> dict:
     }
 
 
+def row(run: Path) -> dict | None:
+    """The row of the trial in ``run`` (its folder), or ``None`` where it is not one of a free object that
+    did not complete."""
+    record = json.loads((run / "trial.json").read_text())
+    if record.get("task") not in TASKS or record.get("completed", True) or record.get("failure_time") is None:
+        return None
+    return {"record": f"{run.parent.name}/{run.name}", "task": record["task"], "seed": record["seed"],
+            "method": method_name(record), "lifted": bool(record.get("milestone_lifted")),
+            "failure_time": record["failure_time"],
+            **rest(record, np.load(run / "timeseries.npz"))}  # fmt: skip
+
+
 def main() -> int:
-    rows = []
-    for folder in FOLDERS:
-        for path in sorted((HERE / folder).glob("*/trial.json")):
-            record = json.loads(path.read_text())
-            series_path = path.parent / "timeseries.npz"
-            if (
-                record.get("task") not in TASKS
-                or record.get("completed", True)
-                or record.get("failure_time") is None
-                or not series_path.is_file()
-            ):
-                continue
-            rows.append({"record": f"{folder}/{path.parent.name}", "task": record["task"],
-                         "seed": record["seed"], "method": method_name(record),
-                         "lifted": bool(record.get("milestone_lifted")),
-                         "failure_time": record["failure_time"],
-                         **rest(record, np.load(series_path))})  # fmt: skip
-    if not rows:
-        print("failed_rest: no trial that lost its object with its time series", file=sys.stderr)
-        return 1
-    write_rows(rows, CSV)
-    print(f"failed_rest: {len(rows)} trials -> {CSV}")
-    return 0
+    return series_rows("failed_rest", HERE, FOLDERS, row, CSV)
 
 
 if __name__ == "__main__":

@@ -69,6 +69,16 @@ def window(record: dict, series) -> tuple[float, float, float]:
     return start, end, float(series["object_qpos"][int(np.searchsorted(series["time"], start)), 2])
 
 
+def trials(folder: Path, method: str):
+    """``(path, record, series)`` of each kept trial under ``folder`` on :data:`TASKS` of ``method`` whose
+    time series is kept (``path``: its ``trial.json``)."""
+    for path in sorted(folder.glob("*/trial.json")):
+        record = json.loads(path.read_text())
+        series_path = path.parent / "timeseries.npz"
+        if record.get("task") in TASKS and series_path.is_file() and method_name(record) == method:
+            yield path, record, np.load(series_path)
+
+
 def figure(curves: dict, path: Path, task: str) -> None:
     """Per trial of ``task``, the object's height above its start in each replay."""
     import matplotlib.pyplot as plt
@@ -107,12 +117,7 @@ def main() -> int:
         print("lift_replay: error: set CONTACTMPC_PAPER_DATA to the authors' mjpc/tasks", file=sys.stderr)
         return 2
     rows, curves = [], {task: {} for task in TASKS}
-    for path in sorted((HERE / "records").glob("*/trial.json")):
-        record = json.loads(path.read_text())
-        series_path = path.parent / "timeseries.npz"
-        if record.get("task") not in TASKS or not series_path.is_file() or method_name(record) != METHOD:
-            continue
-        series = np.load(series_path)
+    for path, record, series in trials(HERE / "records", METHOD):
         start, end, z0 = window(record, series)
         span = record["contact_span_start"]
         runs = []

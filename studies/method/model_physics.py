@@ -16,7 +16,6 @@ reads, so a clone without the time series makes the same report:
 from __future__ import annotations
 
 import copy
-import json
 import os
 import sys
 import time
@@ -24,11 +23,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
-import numpy as np
-from lift_replay import AFTER, BEFORE, LIFT, TASKS, replay, window  # this folder's scripts
+from lift_replay import AFTER, BEFORE, LIFT, replay, trials, window  # this folder's scripts
 from release_replay import scene_of, write_rows
-
-from contactmpc.labels import method_name
 
 HERE = Path(__file__).resolve().parent
 CSV = HERE / "figures" / "model_physics.csv"
@@ -100,12 +96,7 @@ def main() -> int:
         print("model_physics: error: set CONTACTMPC_PAPER_DATA to the authors' mjpc/tasks", file=sys.stderr)
         return 2
     rows = []
-    for path in sorted((HERE / FOLDER).glob("*/trial.json")):
-        record = json.loads(path.read_text())
-        series_path = path.parent / "timeseries.npz"
-        if record.get("task") not in TASKS or not series_path.is_file() or method_name(record) != METHOD:
-            continue
-        series = np.load(series_path)
+    for path, record, series in trials(HERE / FOLDER, METHOD):
         start, end, z0 = window(record, series)
         scene = scene_of(record, paper_data)
         for name, step, model in runs(scene):
