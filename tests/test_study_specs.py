@@ -1105,11 +1105,12 @@ def test_the_method_study_says_where_a_lost_object_lies_per_task() -> None:
     spec = Study("method").spec
     moves = [(10.0, 5.0, False), (15.0, 40.0, True), (100.0, 5.0, False), (200.0, 170.0, False)]
     df = pd.DataFrame([
-        {"task": task, "seed": i, "moved": m, "rose": 0.0, "turned": t, "lifted": lifted}
+        {"task": task, "seed": i, "moved": m, "rose": 0.0, "turned": t, "lifted": lifted, "after": 1.0}
         for task in ("paper_stapler", "paper_apple") for i, (m, t, lifted) in enumerate(moves)])  # fmt: skip
     text = spec.failed_rest(df)
     assert text.index("| apple |") < text.index("| stapler |")  # the tasks in the study's order
     assert "| stapler | 4 | 3 | 58 / 170 | 22 / 131 | 2 | 1 |" in text
+    assert "the object 1 s after the trial's failure time" in text
     assert spec.failed_rest(df.iloc[0:0]) == ""
 
 

@@ -50,7 +50,7 @@ def row(run: Path) -> dict | None:
         return None
     return {"record": f"{run.parent.name}/{run.name}", "task": record["task"], "seed": record["seed"],
             "method": method_name(record), "lifted": bool(record.get("milestone_lifted")),
-            "failure_time": record["failure_time"],
+            "failure_time": record["failure_time"], "after": AFTER,
             **rest(record, np.load(run / "timeseries.npz"))}  # fmt: skip
 
 

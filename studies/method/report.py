@@ -3024,8 +3024,8 @@ REST_MOVE, REST_TURN = 0.02, 15.0
 
 def failed_rest(rows: pd.DataFrame) -> str:
     """Where the free objects lie once their trials have lost them (:data:`FAILED_REST`'s rows: ``task``,
-    ``lifted``, ``moved`` (mm) and ``turned`` (deg) from the trial's start, read ``failed_rest.AFTER`` s
-    after the failure; ``studies/method/failed_rest.py``): per task, the medians and 90th percentiles, and
+    ``lifted``, ``moved`` (mm) and ``turned`` (deg) from the trial's start, read ``after`` s after the
+    failure; ``studies/method/failed_rest.py``): per task, the medians and 90th percentiles, and
     how many lie within :data:`REST_MOVE` of where they started, and also within :data:`REST_TURN`."""
     if not len(rows):
         return ""
@@ -3043,7 +3043,8 @@ def failed_rest(rows: pd.DataFrame) -> str:
     return (
         "Could a lost grasp be tried again from the reference's approach? Every kept trial of the levers "
         "and the held-out seeds on a free object that did not complete (`python studies/method/"
-        "failed_rest.py`; every option): the object 1 s after the trial's failure time, against where it "
+        f"failed_rest.py`; every option): the object {rows['after'].iloc[0]:g} s after the trial's failure "
+        "time, against where it "
         "started: how far it moved across the table and how far it turned (median / 90th percentile), and "
         f"on how many it lies within {move} of its start, and within {move} and {turn} (where the "
         "reference's approach would meet it again; the apple is a sphere, whose turn does not stop a "
