@@ -242,9 +242,11 @@ def test_an_online_plan_held_to_a_fixed_latency_acts_no_sooner(apple_reference):
 
 
 class _InterruptingViewer:
-    """Stands in for the viewer: Ctrl-C arrives in the plant's thread at control time 0.1 s."""
+    """Stands in for the viewer: Ctrl-C arrives in the plant's thread at its first sync from control time
+    0.1 s on (``stopped_at``: that sync's time; a loaded machine syncs later, so it can be past 0.1 s)."""
 
     drags: list = []
+    stopped_at: float | None = None
 
     def is_running(self) -> bool:
         return True
@@ -252,6 +254,7 @@ class _InterruptingViewer:
     def sync(self, data, t, lines) -> None:
         assert lines[0][0] == "time"  # the overlay's lines: (label, value)
         if t >= 0.1:
+            self.stopped_at = t
             raise KeyboardInterrupt
 
     def close(self) -> None:
@@ -261,16 +264,18 @@ class _InterruptingViewer:
 def test_ctrl_c_ends_an_online_run_with_a_record(apple_reference, tmp_path, monkeypatch):
     from contactmpc.jobs import online
 
-    monkeypatch.setattr(online.LiveViewer, "open", lambda *args: _InterruptingViewer())
+    viewer = _InterruptingViewer()
+    monkeypatch.setattr(online.LiveViewer, "open", lambda *args: viewer)
     overrides = ["job=online", "task=apple", f"task.reference_path={apple_reference}", "planner=replay"]
     overrides += ["job.viewer=true", "job.progress=false"]
     with pytest.raises(KeyboardInterrupt):
         run_job(overrides, tmp_path)
     record = json.loads((tmp_path / "trial.json").read_text())
     assert record["status"] == "interrupted" and record["error"] == "KeyboardInterrupt"
-    assert record["simulated_seconds"] == pytest.approx(0.1, abs=0.01)  # how far it ran
+    assert viewer.stopped_at is not None and viewer.stopped_at >= 0.1
+    assert record["simulated_seconds"] == pytest.approx(viewer.stopped_at, abs=0.01)  # how far it ran
     assert record["num_plans"] >= 1 and record["viewer"] is True
-    assert np.load(tmp_path / "timeseries.npz")["time"][-1] <= 0.1  # the series up to there
+    assert np.load(tmp_path / "timeseries.npz")["time"][-1] <= viewer.stopped_at  # the series up to there
 
 
 def test_the_viewer_is_optional_and_says_when_there_is_no_display(monkeypatch, capsys):
