@@ -392,6 +392,43 @@ def test_switch_back_after_plans_on_the_scene_s_model_again_from_the_release(sce
         PredictiveSampling(switch_back_after=0.0)
 
 
+def test_switch_for_plans_on_the_scene_s_model_again_that_long_after_the_switch(scene_for):
+    """planner.switch_for: a switched planner plans its own problem on the scene's planning model again from
+    that long after its switch on (reference time), once, as a planner that never switched plans from the
+    same nominal; not before, and never where it had not switched; the record says when. It needs a model
+    to leave and cannot join planner.switch_back_after."""
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:4] = False
+
+    def bound(**options):
+        planner = PredictiveSampling(num_samples=6, horizon=0.1, replan_period=0.05, nthread=1, **options)
+        trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
+        return planner, trial
+
+    planner, trial = bound(switch_timestep=0.005, switch_after=0.1, switch_for=0.3)
+    off, _ = bound()
+    first = trial.problem.first_contact
+    state = trial.start_plant().state(0.0)
+    assert not planner.phase(first) and planner.dt == 0.01  # its switch is 0.1 s on
+    assert planner.phase(first + 0.15) and planner.dt == 0.005 and planner.switched_at == first + 0.15
+    assert not planner.phase(first + 0.4) and planner.dt == 0.005  # 0.25 s after the switch: not yet
+    assert planner.switched_back_at is None
+    assert_plans_alike(planner, off, first + 0.45, state)  # 0.3 s after the switch: it goes back here
+    assert planner.dt == 0.01 and planner.problem is trial.problem
+    assert planner.switched_back_at == pytest.approx(first + 0.45)
+    assert planner.engine.model.opt.timestep == 0.01
+    assert not planner.phase(first + 0.8) and planner.dt == 0.01  # once
+    unswitched, _ = bound(switch_timestep=0.005, switch_after=None, switch_for=0.0)
+    assert not unswitched.phase(first + 0.8) and unswitched.dt == 0.01 and unswitched.switched_back_at is None
+    for p in (planner, off, unswitched):
+        p.close()
+    with pytest.raises(ConfigError, match="switch_for needs planner.switch_timestep"):
+        PredictiveSampling(switch_for=1.0)
+    with pytest.raises(ConfigError, match="switch_for and planner.switch_back_after: choose one"):
+        PredictiveSampling(switch_timestep=0.005, switch_for=1.0, switch_back_after=0.0)
+
+
 def test_switch_error_switches_once_the_model_has_mispredicted_the_object_in_a_row(
     scene_for, late_contact_reference
 ):

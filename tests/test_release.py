@@ -171,6 +171,7 @@ def _trial_and_series(release: float, knocked: bool):
             switched_at=None,
             switch_back_after=None,
             switch_back_held=False,
+            switch_for=None,
             latency_per_plan=False,
         ),
     )
@@ -199,6 +200,7 @@ def test_summarize_records_the_end_of_the_trial():
         switched_at=None,
         switch_back_after=None,
         switch_back_held=False,
+        switch_for=None,
         latency_per_plan=False,
     )
     rec = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
@@ -208,6 +210,8 @@ def test_summarize_records_the_end_of_the_trial():
     trial.planner.switch_back_after, trial.planner.switched_back_at = 0.0, 2.5  # and back
     assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
     trial.planner.switch_back_after, trial.planner.switch_back_held = None, True  # back on the grasp's hold
+    assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
+    trial.planner.switch_back_held, trial.planner.switch_for = False, 2.0  # back that long after the switch
     assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
 
     knocked, trial = _trial_and_series(release=2.5, knocked=True)

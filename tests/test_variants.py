@@ -489,7 +489,7 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     rollout=fine_after_grasp keeps 10 ms and switches to 5 ms 2 s after the first expected contact,
     rollout=fine_from_contact at it, within the paper point's rollout steps; rollout=fine_on_error once the
     model has mispredicted the object, rollout=fine_grasp_on_error then back at the release,
-    rollout=fine_until_held back once the grasp has held."""
+    rollout=fine_until_held back once the grasp has held, rollout=fine_lift 2 s after the switch."""
     base = compose(["task=apple"])
     assert compose(["task=apple", "rollout=paper"]) == base
     fine = compose(["task=apple", "rollout=fine"])
@@ -519,6 +519,9 @@ def test_rollout_fine_steps_the_planning_model_only_and_paper_changes_nothing(co
     held = compose(["task=apple", "rollout=fine_until_held"]).planner  # ... and back on the grasp's hold
     assert {**held, "switch_back_held": False} == on_error and held.switch_back_held
     assert not base.planner.switch_back_held
+    lift = compose(["task=apple", "rollout=fine_lift"]).planner  # ... for 2 s from the switch
+    assert {**lift, "switch_for": None} == late.planner and lift.switch_for == 2.0
+    assert base.planner.switch_for is None
 
 
 def test_a_named_method_with_a_group_set_back_to_its_default_is_named_so():

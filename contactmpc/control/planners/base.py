@@ -232,6 +232,11 @@ class Planner:
             ``carry_hold`` seconds (the signal that starts the wrist's carry, ``carry_gain``, which it
             needs). From that plan on a switched planner goes back to the scene's planning model, once, and
             one that has not switched yet never does. False: not on the grasp.
+        switch_for: seconds of reference time a switched planner plans on the switched model, counted from
+            its switch (:attr:`switched_at`): from then on its own problem on the scene's planning model
+            again, once, so the finer model plans one stretch (e.g. the lift) and not the rest. ``None``: by
+            ``switch_back_after`` or ``switch_back_held`` alone (which it cannot join with
+            ``switch_back_after``).
         reuse: carry the last plan's runners-up into the next plan (iCEM's kept elites, Pinneri et al.
             2020; not the paper's): the next plan's first iteration replaces this many of its fresh
             samples (the last rows; row 0 stays the nominal) by the last plan's cheapest finite
@@ -317,6 +322,7 @@ class Planner:
         switch_count: Annotated[int, Ge(1)] = 2,
         switch_back_after: float | None = None,
         switch_back_held: bool = False,
+        switch_for: Annotated[float, Ge(0)] | None = None,
         reuse: Annotated[int, Ge(0)] = 0,
         reuse_after: float | None = None,
         reuse_fingers: Annotated[int, Ge(0)] = 0,
@@ -420,12 +426,18 @@ class Planner:
         self.switch_count = int(switch_count)
         self.switch_back_after = None if switch_back_after is None else float(switch_back_after)
         self.switch_back_held = bool(switch_back_held)
+        self.switch_for = None if switch_for is None else float(switch_for)
         for name, on in (
             ("switch_back_after", switch_back_after is not None),
             ("switch_back_held", switch_back_held),
+            ("switch_for", switch_for is not None),
         ):
             if on and switch_timestep is None:
                 raise ConfigError(f"planner.{name} needs planner.switch_timestep (the model it leaves)")
+        if switch_for is not None and switch_back_after is not None:
+            raise ConfigError(
+                "planner.switch_for and planner.switch_back_after: choose one (when it goes back)"
+            )
         if switch_back_held and not carry_gain:
             raise ConfigError(
                 "planner.switch_back_held needs planner.carry_gain (carry=held: the grasp's hold)"
@@ -563,7 +575,7 @@ class Planner:
         plan's the last, each missed the object by more than it), plan the problem on the other planning
         model, with a new rollout engine; once (:attr:`switched_at` then says when). With
         ``switch_back_after`` (or ``switch_back_held``, once the grasp has held), from then on the planner's
-        own problem again, once (:attr:`switched_back_at`).
+        own problem again, once (:attr:`switched_back_at`); with ``switch_for``, that long after the switch.
 
         Returns:
             True where it switched (or went back) now.
@@ -582,14 +594,16 @@ class Planner:
             return False
         problem, self._switch_at, self._switched = self._switched, None, None
         self.switched_at = float(s)
+        if self.switch_for is not None:  # back on the planner's own problem that long after the switch
+            self._back = (self.switched_at + self.switch_for, self.problem)
         self.close()
         self._attach(problem)
         return True
 
     def _switch_back(self, s: float) -> bool:
-        """(``switch_back_after``, ``switch_back_held``) From its time on (or from the plan at which the grasp
-        has held), once the planner has switched, plan its own problem on the scene's planning model again,
-        once; True where it went back now."""
+        """(``switch_back_after``, ``switch_for``, ``switch_back_held``) From its time on (or from the plan at
+        which the grasp has held), once the planner has switched, plan its own problem on the scene's planning
+        model again, once; True where it went back now."""
         if self._back is None or self.switched_at is None:
             return False
         if s < self._back[0] - 1e-9 and not (self.switch_back_held and self._held):
