@@ -1747,3 +1747,31 @@ def test_the_method_study_reads_a_paced_trials_wait_and_the_tilt_over_it(tmp_pat
     assert waited == 0.0 and np.isnan(began) and np.isnan(ended) and end == pytest.approx(5.0)
     np.savez(run / "timeseries.npz", time=t, object_qpos=tipped, expected_object_qpos=upright)
     assert spec.paced_waits(run / "trial.json") is None
+
+
+def test_the_method_study_sets_each_finer_lever_seed_by_seed_beside_the_method_it_ran_on() -> None:
+    """finer_levers: per task and block of ten seeds, the method's trials seed by seed, then each
+    ``rollout=`` lever on it that ran in the block (a seed not run marked so), each with its counts; other
+    levers and blocks no lever ran in are left out; nothing without such levers."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    m = spec.OUTCOME_MARKS
+
+    def trial(variant, seed, completed, clean, lever=None):
+        return {"task": "stapler", "variant": variant, "seed": seed, "completed": completed,
+                "finished_cleanly": clean, "lever": lever, "on": "base"}  # fmt: skip
+
+    every = pd.DataFrame([trial("base", s, s != 1, s not in (1, 2)) for s in range(20)])
+    lift = "rollout=fine_lift variant=base"
+    levers = pd.DataFrame(
+        [trial("base+rollout=fine_lift", s, True, s != 3, lift) for s in (1, 3)]
+        + [trial("base+carry=held", s, True, True, "carry=held variant=base") for s in (12,)]
+    )
+    text = spec.finer_levers(levers, every)
+    base_marks = m["clean"] + m["failed"] + m["completed"] + m["clean"] * 7
+    assert f"| stapler | 0-9 | `base` | `{base_marks}` | 9 of 10 | 8 of 10 |" in text
+    lever_marks = m["none"] + m["clean"] + m["none"] + m["completed"] + m["none"] * 6
+    assert f"| stapler | 0-9 | `rollout=fine_lift` on it | `{lever_marks}` | 2 of 2 | 1 of 2 |" in text
+    assert "| stapler | 10-19 |" not in text and "carry=held" not in text  # no planning model of its own
+    assert spec.finer_levers(levers[levers["lever"] != lift], every) == ""

@@ -2952,6 +2952,63 @@ def finer_models(df: pd.DataFrame) -> str:
     )
 
 
+#: One seed's outcome in :func:`finer_levers`: finished cleanly, completed only, not completed, not run.
+OUTCOME_MARKS = {"clean": "✓", "completed": "c", "failed": "✗", "none": "·"}
+
+
+def finer_levers(levers: pd.DataFrame, every: pd.DataFrame) -> str:
+    """The lever trials with another planning model (a ``rollout=`` override; ``levers``:
+    :func:`lever_frame`) beside the method each ran on (its trials in ``every``, :func:`with_heldout`), per
+    task and block of ten seeds, seed by seed: the method's row, then each such lever's on it, on the seeds
+    the levers ran; the counts over those seeds."""
+    fine = levers[levers["lever"].str.contains("rollout=")] if len(levers) else levers
+    if not len(fine):
+        return ""
+
+    def marks(trials: pd.DataFrame, seeds_: list[int]) -> tuple[str, int, int, int]:
+        by_seed = trials.drop_duplicates("seed").set_index("seed")
+        out = []
+        for s in seeds_:
+            r = by_seed.loc[s] if s in by_seed.index else None
+            key = (
+                "none" if r is None
+                else "clean" if r["finished_cleanly"]
+                else "completed" if r["completed"]
+                else "failed"
+            )  # fmt: skip
+            out.append(OUTCOME_MARKS[key])
+        ran = by_seed.loc[[s for s in seeds_ if s in by_seed.index]]
+        return "".join(out), len(ran), int(ran["completed"].sum()), int(ran["finished_cleanly"].sum())
+
+    rows = []
+    for task in ordered(fine["task"].unique(), TASK_ORDER):
+        for on in sorted(fine.loc[fine["task"] == task, "on"].unique()):
+            mine = fine[(fine["task"] == task) & (fine["on"] == on)]
+            base = every[(every["task"] == task) & (every["variant"] == on)] if len(every) else every
+            for block in sorted({int(s) // 10 for s in mine["seed"]}):
+                seeds_ = list(range(10 * block, 10 * block + 10))
+                shown = [(f"`{on}`", base)] + [
+                    (f"`{' '.join(p for p in lever.split() if not p.startswith('variant='))}` on it", g)
+                    for lever, g in mine.groupby("lever", sort=True)
+                    if g["seed"].isin(seeds_).any()
+                ]
+                for name, trials in shown:
+                    code, n, k, c = marks(trials[trials["seed"].isin(seeds_)], seeds_)
+                    rows.append(
+                        f"| {task} | {seeds_[0]}-{seeds_[-1]} | {name} | `{code}` | {of(k, n)} | {of(c, n)} |"
+                    )
+    return (
+        "\nSeed by seed, the lever trials with another planning model (a `rollout=` override, kept in "
+        f"`{LEVERS}/`) beside the method each ran on, in blocks of ten seeds (seeds {HELDOUT_SEEDS} held "
+        f"out; `{OUTCOME_MARKS['clean']}` finished cleanly, `{OUTCOME_MARKS['completed']}` completed only, "
+        f"`{OUTCOME_MARKS['failed']}` not completed, `{OUTCOME_MARKS['none']}` not run); the counts over the "
+        "seeds each row ran:\n\n"
+        "| task | seeds | trials | per seed | completed | finished cleanly |\n|---|---|---|---|--:|--:|\n"
+        + "\n".join(rows)
+        + "\n"
+    )
+
+
 PHYSICS = "model_physics.csv"
 
 
@@ -4397,6 +4454,7 @@ def report(study) -> str:
         + "\n## The planning model and the lift\n\n"
         + from_figures(study, LIFTS, lift_replays, "Not replayed yet.\n")
         + finer_models(df)
+        + finer_levers(lever_frame(study), with_heldout(study, df))
         + "\n## The planning model's physics\n\n"
         + from_figures(study, PHYSICS, model_physics, "Not replayed yet.\n")
         + "\n## What a plan costs with each planning model\n\n"
