@@ -358,6 +358,13 @@ def test_switch_timestep_plans_on_the_finer_model_from_after_the_first_contact(
         bound(coarse, switch_timestep=0.0055)
 
 
+def _switching(scene, ref, **options):
+    """A small predictive-sampling planner with ``options`` and the trial that binds it to ``ref``."""
+    planner = PredictiveSampling(num_samples=6, horizon=0.1, replan_period=0.05, nthread=1, **options)
+    trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
+    return planner, trial
+
+
 def test_switch_back_after_plans_on_the_scene_s_model_again_from_the_release(scene_for):
     """planner.switch_back_after: a switched planner plans its own problem on the scene's planning model
     again from that long after the reference's last expected contact on, once, as a planner that never
@@ -369,9 +376,7 @@ def test_switch_back_after_plans_on_the_scene_s_model_again_from_the_release(sce
     ref.contact_active[8:] = False  # the reference lets go
 
     def bound(**options):
-        planner = PredictiveSampling(num_samples=6, horizon=0.1, replan_period=0.05, nthread=1, **options)
-        trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
-        return planner, trial
+        return _switching(scene, ref, **options)
 
     planner, trial = bound(switch_timestep=0.005, switch_after=0.0, switch_back_after=0.0)
     off, _ = bound()
@@ -402,9 +407,7 @@ def test_switch_for_plans_on_the_scene_s_model_again_that_long_after_the_switch(
     ref.contact_active[:4] = False
 
     def bound(**options):
-        planner = PredictiveSampling(num_samples=6, horizon=0.1, replan_period=0.05, nthread=1, **options)
-        trial = Trial(scene, ref, PCASplineSpace(0.2), TrackingCost(), planner, 0, progress=False)
-        return planner, trial
+        return _switching(scene, ref, **options)
 
     planner, trial = bound(switch_timestep=0.005, switch_after=0.1, switch_for=0.3)
     off, _ = bound()
