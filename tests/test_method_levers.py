@@ -380,6 +380,7 @@ def test_switch_back_after_plans_on_the_scene_s_model_again_from_the_release(sce
 
     planner, trial = bound(switch_timestep=0.005, switch_after=0.0, switch_back_after=0.0)
     off, _ = bound()
+    assert planner.switches_back and not off.switches_back  # the record says when
     first, last = trial.problem.first_contact, trial.problem.last_contact
     assert last is not None and last > first + 0.1
     state = trial.start_plant().state(0.0)
@@ -411,6 +412,7 @@ def test_switch_for_plans_on_the_scene_s_model_again_that_long_after_the_switch(
 
     planner, trial = bound(switch_timestep=0.005, switch_after=0.1, switch_for=0.3)
     off, _ = bound()
+    assert planner.switches_back  # the record says when
     first = trial.problem.first_contact
     state = trial.start_plant().state(0.0)
     assert not planner.phase(first) and planner.dt == 0.01  # its switch is 0.1 s on
@@ -1026,6 +1028,7 @@ def test_switch_back_held_plans_on_the_scene_s_model_again_once_the_grasp_has_he
         return p.phase(s)
 
     early = planner(0.0)
+    assert early.switches_back  # the record says when
     assert plan(early, 0.1, lifted=False) and early.dt == 0.005  # switched from the first expected contact
     assert not plan(early, 0.2) and not plan(early, 0.6) and early.dt == 0.005  # carried 0.4 s: not yet
     assert plan(early, 0.7) and early.dt == 0.01  # 0.5 s: the grasp has held

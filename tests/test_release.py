@@ -169,9 +169,7 @@ def _trial_and_series(release: float, knocked: bool):
         planner=SimpleNamespace(
             switch_timestep=None,
             switched_at=None,
-            switch_back_after=None,
-            switch_back_held=False,
-            switch_for=None,
+            switches_back=False,
             latency_per_plan=False,
         ),
     )
@@ -198,20 +196,14 @@ def test_summarize_records_the_end_of_the_trial():
     trial.planner = SimpleNamespace(
         switch_timestep=0.005,
         switched_at=None,
-        switch_back_after=None,
-        switch_back_held=False,
-        switch_for=None,
+        switches_back=False,
         latency_per_plan=False,
     )
     rec = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
     assert rec["switch_time"] is None and "switch_back_time" not in rec  # it never switched
     trial.planner.switched_at = 1.25
     assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_time"] == 1.25
-    trial.planner.switch_back_after, trial.planner.switched_back_at = 0.0, 2.5  # and back
-    assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
-    trial.planner.switch_back_after, trial.planner.switch_back_held = None, True  # back on the grasp's hold
-    assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
-    trial.planner.switch_back_held, trial.planner.switch_for = False, 2.0  # back that long after the switch
+    trial.planner.switches_back, trial.planner.switched_back_at = True, 2.5  # and back
     assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["switch_back_time"] == 2.5
 
     knocked, trial = _trial_and_series(release=2.5, knocked=True)

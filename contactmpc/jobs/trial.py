@@ -198,10 +198,8 @@ def summarize(
     switch = {}
     if trial.planner.switch_timestep is not None:  # when its planning model switched (and back)
         switch["switch_time"] = trial.planner.switched_at
-        planner = trial.planner
-        back = planner.switch_back_after, planner.switch_for
-        if any(b is not None for b in back) or planner.switch_back_held:
-            switch["switch_back_time"] = planner.switched_back_at
+        if trial.planner.switches_back:
+            switch["switch_back_time"] = trial.planner.switched_back_at
     per_plan = {}
     if trial.planner.latency_per_plan:  # each plan its own latency: which ones, and how many of each
         dt = trial.scene.plant_model.opt.timestep

@@ -600,6 +600,12 @@ class Planner:
         self._attach(problem)
         return True
 
+    @property
+    def switches_back(self) -> bool:
+        """Whether a switched planner goes back to the scene's planning model (``switch_back_after``,
+        ``switch_for`` or ``switch_back_held``), so that a record says when (``switch_back_time``)."""
+        return self.switch_back_after is not None or self.switch_for is not None or self.switch_back_held
+
     def _switch_back(self, s: float) -> bool:
         """(``switch_back_after``, ``switch_for``, ``switch_back_held``) From its time on (or from the plan at
         which the grasp has held), once the planner has switched, plan its own problem on the scene's planning
