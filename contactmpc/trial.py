@@ -142,6 +142,8 @@ class Trial:
             slowed = reference.duration * scene.task.time_scale
             budgets = 1 if planner.pace_grasp is None else 2  # (the grasp's wait has a budget of its own)
             duration = (slowed if duration is None else duration) + budgets * planner.pace_budget
+            if planner.pace_retry is not None:  # (a grasp tried again: the rewinds' budget)
+                duration += planner.pace_retry_budget
         self.problem = Problem.build(
             scene, reference, space, cost, planner.horizon, num_control_points, duration
         )

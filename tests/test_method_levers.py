@@ -652,6 +652,90 @@ def test_pacing_holds_the_reference_in_the_span_while_the_object_lags_up_to_its_
     off.close()
 
 
+def test_pace_retry_rewinds_to_before_the_first_contact_once_the_object_has_lain_lost(scene_for):
+    """planner.pace_retry: once the free object has lain that long not lifted while the reference lifts it,
+    off the reference and with at most pace_retry_fingers fingers on it (in the span), a paced reference's clock runs backwards at
+    pace_retry_rate to pace_retry_to before the first expected contact (the committed control points from
+    there on the reference's own; with pace_retry_follow the wrist moved across the table to the object),
+    then on with control time; a rewind that does not fit what is left of pace_retry_budget is not made (the
+    clock holds as without the option); an object lifted, or held by more fingers, is never rewound for.
+    Off: the clock of a planner without the option."""
+    scene, problem, at = _paced_problem(scene_for)
+    first, track = problem.first_contact, problem.track
+    assert first == pytest.approx(0.4)
+    track.object_qpos[track.index(0.42) :, 2] += 0.05  # the reference lifts the object 5 cm from 0.42 s
+    kwargs = dict(num_samples=2, horizon=0.2, nthread=1, pace_lag=0.02, pace_budget=1.0)
+    retry = dict(pace_retry=0.3, pace_retry_to=0.1, pace_retry_rate=2.0)
+
+    def bound(**options):
+        planner = PredictiveSampling(**kwargs, **options)
+        planner.bind(problem)
+        return planner
+
+    planner, off = bound(**retry, pace_retry_budget=0.9), bound()
+    rest = problem.track.object_qpos[0]
+    on_table = rest.copy()
+    on_table[0] += 0.05  # pushed 5 cm across the table: on it, 5 cm from the reference's
+    lifted = rest.copy()
+    lifted[[0, 2]] += 0.05, 0.03  # 3 cm above where it starts, 5.4 cm from the reference's
+    assert planner.fingers_touching(at(on_table)) <= 1  # (the hand at its zero configuration: lost)
+    planner.theta[:] += 1.0  # committed control points other than the reference's own
+    planner.pace(0.3, 0.3, at(on_table))  # before the first expected contact: never lost
+    off.pace(0.3, 0.3, at(on_table))
+    for t in (0.8, 0.9):  # lost from 0.8 s (and held, as without the option); 0.1 s on: no rewind yet
+        planner.pace(t, 0.8, at(on_table))
+        off.pace(t, 0.8, at(on_table))
+        assert planner.clock == off.clock and planner.reference_time(1.0) == 0.8
+    planner.pace(1.1, 0.8, at(on_table))  # lost 0.3 s: back to 0.3 s at 2x, then on
+    np.testing.assert_allclose(
+        planner.reference_time(np.array([1.1, 1.2, 1.35, 1.5])), [0.8, 0.6, 0.3, 0.45], atol=1e-12
+    )
+    assert planner.retried_at == [1.1] and planner.rewinding(1.2) and not planner.waiting(1.2)
+    reset = problem.spline.window_indices(0.3, problem.spline.domain[1] - 0.3)
+    np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset])
+    assert np.all(planner.theta[: reset[0]] == problem.theta0[: reset[0]] + 1.0)
+    clock = planner.clock
+    planner.pace(1.2, 0.6, at(on_table))  # a rewind runs its course
+    assert planner.clock == clock
+    planner.pace(1.5, 0.45, at(on_table))  # past the first contact again, still lost: held ...
+    assert planner.reference_time(1.6) == pytest.approx(0.45)
+    planner.pace(1.8, 0.45, at(on_table))  # ... 0.3 s: a second rewind would cost 0.225 s, 0.15 left
+    assert planner.retried_at == [1.1] and planner.reference_time(1.9) == pytest.approx(0.45)
+    wide = bound(**retry, pace_retry_budget=1.0)  # 0.975 s for both fits
+    for t, s in ((0.8, 0.8), (1.1, 0.8), (1.5, 0.45), (1.8, 0.45)):
+        wide.pace(t, s, at(on_table))
+    assert wide.retried_at == [1.1, 1.8]
+    waiter, held = bound(**retry), bound(**retry)  # lifted, or in a grasp of two fingers: never rewound
+    held.fingers_touching = lambda state: 2
+    for t in (0.8, 1.1, 1.4):
+        waiter.pace(t, 0.8, at(lifted))
+        held.pace(t, 0.8, at(on_table))
+    assert waiter.retried_at == [] == held.retried_at and waiter.reference_time(1.5) == pytest.approx(0.8)
+    track.object_qpos[track.index(0.42) :, 2] -= 0.05  # a reference that never lifts it: not left behind
+    down = bound(**retry)
+    for t in (0.8, 1.1, 1.4):
+        down.pace(t, 0.8, at(on_table))
+    assert down.retried_at == [] and down.reference_time(1.5) == pytest.approx(0.8)
+    track.object_qpos[track.index(0.42) :, 2] += 0.05
+    follow = bound(**retry, pace_retry_follow=(0.2, 0.4))  # the wrist to where the object lies
+    follow.pace(0.8, 0.8, at(on_table))
+    follow.pace(1.1, 0.8, at(on_table))
+    weight = np.clip((first + 0.4 - problem.spline.greville(reset)) / 0.2, 0.0, 1.0)
+    moved = follow.theta[reset] - problem.theta0[reset]
+    np.testing.assert_allclose(moved[:, 0], 0.05 * weight, atol=1e-12)  # the object's offset, faded out
+    assert weight[0] == 1.0 and weight[-1] == 0.0 and not moved[:, 1:].any()
+    waiter.bind(problem)  # a new trial's: no rewind made
+    assert waiter.retried_at == [] and waiter.reference_time(2.0) == 2.0
+    with pytest.raises(ConfigError, match="pace_retry"):
+        PredictiveSampling(pace_retry=1.0)
+    with pytest.raises(ConfigError, match="pace_retry"):
+        PredictiveSampling(pace_lag=0.02, pace_window=(-0.4, 0.0), pace_retry=1.0)
+    with pytest.raises(ConfigError, match="pace_retry_follow"):
+        PredictiveSampling(pace_lag=0.02, pace_retry=1.0, pace_retry_follow=(0.4, 0.2))
+    for p in (planner, off, wide, waiter, held, down, follow):
+        p.close()
+
+
 def _paced_problem(scene_for, release=None):
     """The apple's problem on a static reference expecting contact from 0.2 to 0.7 s of its demonstration
     (letting go on the ``release`` schedule), and a function that puts an object configuration into a

@@ -200,6 +200,8 @@ def summarize(
         switch["switch_time"] = trial.planner.switched_at
         if trial.planner.switches_back:
             switch["switch_back_time"] = trial.planner.switched_back_at
+    if trial.planner.pace_retry is not None:  # (pace_retry) when the grasp was tried again
+        switch["retry_times"] = list(trial.planner.retried_at)
     per_plan = {}
     if trial.planner.latency_per_plan:  # each plan its own latency: which ones, and how many of each
         dt = trial.scene.plant_model.opt.timestep

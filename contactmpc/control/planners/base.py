@@ -181,6 +181,27 @@ class Planner:
             waits for a grasp), for up to ``pace_budget`` of its own, so the window's wait keeps its
             whole budget; a trial then runs twice ``pace_budget`` longer. ``pace_turn`` acts only in the
             window's wait. ``None``: the window alone.
+        pace_retry: try a lost grasp again (not the paper's; s; needs ``pace_lag`` without ``pace_window``):
+            where, between the reference's first and last expected contact, the free object has lain this
+            long not lifted (not more than ``carry_lift`` above where it starts) while the reference has it
+            lifted (more than that), more than ``pace_lag`` from the reference's, with at most
+            ``pace_retry_fingers`` fingers on it (a lift that left it behind, or dropped it), the
+            reference's clock runs backwards at ``pace_retry_rate`` to ``pace_retry_to`` before the first
+            expected contact, then on with control time: the hand comes to the object again, from the
+            reference's own control points (``problem.theta0``) from there on. A rewind costs its
+            reference seconds x (1 + 1 / ``pace_retry_rate``) of control time, out of
+            ``pace_retry_budget`` (a trial on a free object runs that much longer); none that does not fit.
+            The holds' ``pace_budget`` does not count the rewinds. ``None`` (the paper): never.
+        pace_retry_to: seconds before the reference's first expected contact that a rewind goes back to.
+        pace_retry_rate: how fast the reference's clock runs backwards while it rewinds (reference seconds
+            per control second).
+        pace_retry_budget: control time the rewinds may take in all (s).
+        pace_retry_fingers: the most fingers on the object (:meth:`fingers_touching`) for it to count as lost.
+        pace_retry_follow: ``(start, end)`` seconds after the first expected contact: a rewind also moves the
+            wrist's translation across the table by where the object now lies from where the reference has
+            it at ``pace_retry_to`` (its horizontal offset), wholly on the control points up to ``start``
+            and fading to none at ``end`` by each point's Greville abscissa, so the hand comes to the object
+            where it lies and carries it back onto the reference's path. ``None``: the reference's wrist.
         carry_gain: carry the object where the reference has it (not the paper's; 1/s): while the free
             object and the reference's are both more than ``carry_lift`` above where the object starts
             (it is carried), each plan moves the wrist's committed translation, on the control points from
@@ -307,6 +328,12 @@ class Planner:
         pace_angle: Annotated[float, Gt(0)] | None = None,
         pace_window: tuple[float, float] | None = None,
         pace_grasp: Annotated[float, Gt(0)] | None = None,
+        pace_retry: Annotated[float, Ge(0)] | None = None,
+        pace_retry_to: Annotated[float, Ge(0)] = 0.5,
+        pace_retry_rate: Annotated[float, Gt(0)] = 3.0,
+        pace_retry_budget: Annotated[float, Ge(0)] = 8.0,
+        pace_retry_fingers: Annotated[int, Ge(0)] = 1,
+        pace_retry_follow: tuple[float, float] | None = None,
         carry_gain: Annotated[float, Ge(0)] = 0.0,
         carry_lift: Annotated[float, Ge(0)] = 0.02,
         carry_limit: Annotated[float, Ge(0)] = 0.1,
@@ -366,6 +393,20 @@ class Planner:
         self.pace_grasp = None if pace_grasp is None else float(pace_grasp)
         self._paced_release = False  # (pace_grasp) the clock was last held by the window's rule
         self._grasp_behind = 0.0  # (pace_grasp) how far the grasp's waits left the reference behind
+        if pace_retry is not None and (pace_lag is None or pace_window is not None):
+            raise ConfigError(
+                "planner.pace_retry tries the grasp again where a paced reference's wait for it runs long: "
+                "set planner.pace_lag, without planner.pace_window"
+            )
+        self.pace_retry = None if pace_retry is None else float(pace_retry)
+        self.pace_retry_to = float(pace_retry_to)
+        self.pace_retry_rate = float(pace_retry_rate)
+        self.pace_retry_budget = float(pace_retry_budget)
+        self.pace_retry_fingers = int(pace_retry_fingers)
+        self.pace_retry_follow = time_window("planner.pace_retry_follow", pace_retry_follow)
+        self._lost_since: float | None = None  # (pace_retry) control time the object has lain lost since
+        self._retry_spent = 0.0  # (pace_retry) control time the rewinds took so far
+        self.retried_at: list[float] = []  # (pace_retry) the control times the rewinds began
         self.carry_gain = float(carry_gain)
         self.carry_lift = float(carry_lift)
         self.carry_limit = float(carry_limit)
@@ -503,6 +544,7 @@ class Planner:
         self.theta = np.array(problem.theta0, dtype=float)
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
         self._paced_release, self._grasp_behind = False, 0.0
+        self._lost_since, self._retry_spent, self.retried_at = None, 0.0, []
         self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
         self._held = False
         self._path = None
@@ -797,7 +839,13 @@ class Planner:
         if self.pace_lag is None:
             return False
         t0, _, rate, t1 = self._clock
-        return rate < 1.0 and t0 - 1e-9 <= t < t1 - 1e-9
+        return 0.0 <= rate < 1.0 and t0 - 1e-9 <= t < t1 - 1e-9
+
+    def rewinding(self, t: float) -> bool:
+        """Whether a paced reference's clock runs backwards (``pace_retry``: a grasp tried again) at control
+        time ``t``."""
+        t0, _, rate, t1 = self._clock
+        return rate < 0.0 and t0 - 1e-9 <= t < t1 - 1e-9
 
     def pace(self, t: float, s: float, state: np.ndarray) -> None:
         """Set the reference's clock from control time ``t`` on (where a plan takes effect), for the plan
@@ -808,8 +856,10 @@ class Planner:
         ``pace_window`` it waits only while ``s`` lies in that window around the last expected contact."""
         problem = self.problem
         first, last = problem.first_contact, problem.last_contact
+        if self.rewinding(t):  # (pace_retry) a rewind runs its course
+            return
         at = self.reference_time(t)
-        behind = t - at
+        behind = t - at - self._retry_spent  # (the rewinds' time is their own budget's)
         grasp = False  # (pace_grasp) the grasp's rule, before the window
         if self.pace_window is None:
             wait = first is not None and first - 1e-9 <= s and (last is None or s < last - 1e-9)
@@ -820,6 +870,8 @@ class Planner:
                 grasp = first is not None and first - 1e-9 <= s
                 self._grasp_behind = behind  # (all the grasp's waits, once the window is reached)
         spent = behind if grasp else behind - self._grasp_behind  # this rule's budget spent
+        if self.pace_retry is not None and self.retry(t, at, s, state):
+            return
         if (wait or grasp) and spent < self.pace_budget - 1e-9:
             scene, track = problem.scene, problem.track
             error = scene.task.layout.error(self.object_qpos(state), track.object_qpos[track.index(s)])
@@ -836,6 +888,58 @@ class Planner:
                 return
         if self._clock[2:] != (1.0, np.inf):  # (running on already: the same clock, exactly)
             self._clock = (t, at, 1.0, np.inf)
+
+    def retry(self, t: float, at: float, s: float, state: np.ndarray) -> bool:
+        """(``pace_retry``) Rewind a paced reference at reference time ``at`` where the plan takes effect
+        (control time ``t``; the plan made at reference time ``s`` from ``state``) once the free object has
+        lain lost (on the table, left behind by the reference's lift) for ``pace_retry`` and the rewind fits
+        the budget left: the clock runs backwards to
+        ``pace_retry_to`` before the first expected contact, the committed control points from there on go
+        to the reference's own (the wrist moved to the object with ``pace_retry_follow``) and the kept
+        runners-up are dropped. Returns whether it rewound."""
+        problem = self.problem
+        first, last = problem.first_contact, problem.last_contact
+        free = problem.scene.task.layout.free_columns
+        if not len(free) or first is None or not (first - 1e-9 <= s and (last is None or s < last - 1e-9)):
+            self._lost_since = None
+            return False
+        c, track = free[0], problem.track
+        qo = self.object_qpos(state)
+        lag = float(problem.scene.task.layout.error(qo, track.object_qpos[track.index(s)]).position)
+        start, expected = track.object_qpos[0, c + 2], track.object_qpos[track.index(s), c + 2]
+        lost = (
+            qo[c + 2] - start <= self.carry_lift < expected - start
+            and lag > self.pace_lag
+            and self.fingers_touching(state) <= self.pace_retry_fingers
+        )
+        if not lost:
+            self._lost_since = None
+            return False
+        if self._lost_since is None:
+            self._lost_since = t
+        to = max(0.0, first - self.pace_retry_to)
+        back = at - to
+        cost = back * (1.0 + 1.0 / self.pace_retry_rate)
+        if (
+            t - self._lost_since < self.pace_retry - 1e-9
+            or back <= 0.0
+            or self._retry_spent + cost > self.pace_retry_budget + 1e-9
+        ):
+            return False
+        self._clock = (t, at, -self.pace_retry_rate, t + back / self.pace_retry_rate)
+        self._retry_spent += cost
+        self._lost_since = None
+        self.retried_at.append(float(t))
+        spline = problem.spline
+        reset = spline.window_indices(to, max(0.0, spline.domain[1] - to))
+        self.theta[reset] = problem.theta0[reset]
+        if self.pace_retry_follow is not None:  # the wrist to where the object lies
+            start, end = self.pace_retry_follow
+            offset = qo[c : c + 2] - track.object_qpos[track.index(to), c : c + 2]
+            weight = np.clip((first + end - spline.greville(reset)) / (end - start), 0.0, 1.0)
+            self.theta[reset, :2] += weight[:, None] * offset[None]
+        self._kept = None
+        return True
 
     def controls(self, theta: np.ndarray, basis: np.ndarray, times=None) -> np.ndarray:
         """(..., H, nu) actuator controls from control points (..., M, d) through a basis (H, M) at
