@@ -1668,7 +1668,8 @@ def test_the_latency_s_demand_on_the_machine_is_read_from_the_records_and_the_be
 def test_the_method_study_finds_paced_levers_by_the_pacing_their_record_composed(monkeypatch) -> None:
     """_paced_levers reads a lever trial's pacing from its record, not its overrides: a lever on a paced
     method (effort=acquire_waiting on grasp_held_expected_paced: pacing=lift, a grasp wait) is among the
-    grasp's, as pacing=hold's are; pacing=release_turn's among the release's; an unpaced lever in neither."""
+    grasp's, as pacing=hold's are; pacing=release_turn's among the release's; pacing=lift_retry's among
+    neither but its own; an unpaced lever in none."""
     import pandas as pd
 
     spec = Study("method").spec
@@ -1676,6 +1677,7 @@ def test_the_method_study_finds_paced_levers_by_the_pacing_their_record_composed
         "pacing=hold planner.pace_lag=0.035 variant=grasp_held_expected": "hold",
         "effort=acquire_waiting variant=grasp_held_expected_paced": "lift",
         "pacing=release_turn variant=grasp_held_retract": "release_turn",
+        "pacing=lift_retry variant=grasp_held_expected_paced": "lift_retry",
         "carry=held": "none",
     }
     ok = pd.DataFrame([dict(lever=k, pacing=v, task="stapler", seed=0) for k, v in levers.items()])
@@ -1683,8 +1685,35 @@ def test_the_method_study_finds_paced_levers_by_the_pacing_their_record_composed
     monkeypatch.setattr(spec, "lever_names", lambda ok: ({k: "m" for k in levers}, {k: k for k in levers}))
     monkeypatch.setattr(spec, "with_heldout", lambda study, chosen: pd.DataFrame(
         [], columns=["variant", "task", "seed", "finished_cleanly"]))  # fmt: skip
-    grasp, release = (spec._paced_levers(None, None, k)[0]["lever"].tolist() for k in ("hold", "release"))
-    assert grasp == list(levers)[:2] and release == list(levers)[2:3]
+    grasp, release, retry = (
+        spec._paced_levers(None, None, k)[0]["lever"].tolist() for k in ("hold", "release", "lift_retry")
+    )
+    assert grasp == list(levers)[:2] and release == list(levers)[2:3] and retry == list(levers)[3:4]
+
+
+def test_the_method_study_reads_when_a_trial_tried_its_grasp_again_and_where_the_object_lay(tmp_path) -> None:
+    """grasp_retries: per rewind in the record's retry_times, when it began after the reference's first
+    expected contact (contact_span_start) and how far the object lay across the table from where it
+    started (mm); none where it never rewound; None for a record without retry_times."""
+    import json
+
+    import numpy as np
+
+    spec = Study("method").spec
+    t = np.arange(10) * 0.5
+    qpos = np.tile([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], (10, 1))
+    qpos[6:, :2] = 0.03, 0.04  # pushed 5 cm from 3 s on
+    run = tmp_path / "run"
+    run.mkdir()
+    np.savez(run / "timeseries.npz", time=t, object_qpos=qpos)
+    record = {"retry_times": [1.0, 3.5], "contact_span_start": 0.5}
+    (run / "trial.json").write_text(json.dumps(record))
+    (first, near), (second, far) = spec.grasp_retries(run / "trial.json")
+    assert (first, second) == (0.5, 3.0) and near == 0.0 and far == pytest.approx(50.0)
+    (run / "trial.json").write_text(json.dumps({**record, "retry_times": []}))
+    assert spec.grasp_retries(run / "trial.json") == []
+    (run / "trial.json").write_text(json.dumps({"contact_span_start": 0.5}))
+    assert spec.grasp_retries(run / "trial.json") is None
 
 
 def test_the_method_study_splits_a_paced_trials_waits_into_the_grasps_and_the_releases(tmp_path) -> None:

@@ -2017,7 +2017,7 @@ def _paced_levers(study, chosen: pd.DataFrame, kind: str):
     # the pacing its record composed (a lever on a paced method names none: pacing=lift is hold's, at 3.5 cm)
     kinds = (kind, "lift") if kind == "hold" else (kind,)
     paced = ok["pacing"].astype(str) if "pacing" in ok else pd.Series("", index=ok.index)
-    ok = ok[[any(k in p for k in kinds) for p in paced]]
+    ok = ok[[any(k in p for k in kinds) and ("retry" in p) == ("retry" in kind) for p in paced]]  # (retry: its own)
     if not len(ok):
         return None
     every = with_heldout(study, chosen)
@@ -2046,6 +2046,78 @@ def _ended(r, base: bool | None) -> str:
     else:
         mine = "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
     return f"{mine} | {'—' if base is None else 'clean' if base else 'not clean'}"
+
+
+def grasp_retries(record_path) -> list[tuple[float, float]] | None:
+    """A trial's rewinds (``planner.pace_retry``), from its record and ``timeseries.npz``: per rewind, when it
+    began (s after the reference's first expected contact, the record's ``contact_span_start``) and how far
+    the object then lay across the table from where it started (mm); ``None`` without the record's
+    ``retry_times`` or a series."""
+    record = read_record(Path(record_path)) if Path(record_path).is_file() else {}
+    times = record.get("retry_times")
+    series = Path(record_path).parent / "timeseries.npz"
+    if times is None or not series.is_file() or record.get("contact_span_start") is None:
+        return None
+    z = np.load(series)
+    t, xy = z["time"], z["object_qpos"][:, :2]
+    out = []
+    for at in times:
+        k = min(int(np.searchsorted(t, at)), len(t) - 1)
+        out.append((float(at) - float(record["contact_span_start"]), float(np.linalg.norm(xy[k] - xy[0])) * 1e3))
+    return out
+
+
+def retried_grasps(study, chosen: pd.DataFrame) -> str:
+    """The levers that try a lost grasp again (``pacing=lift_retry``) trial by trial: when each rewind began
+    and where the object lay then, how the trial and the method's on that seed (stand-ins counted in)
+    ended; then seed by seed beside the method (:func:`finer_levers`)."""
+    found = _paced_levers(study, chosen, "lift_retry")
+    if found is None:
+        return ""
+    ok, _, named, _ = found
+    rows, per = [], {}
+    for r, rewinds, base in _paced_trials(found, grasp_retries):
+        when = ", ".join(f"{a:+.1f}" for a, _ in rewinds) or "—"
+        where = ", ".join(f"{b:.0f}" for _, b in rewinds) or "—"
+        rows.append(f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {when} | {where} | {_ended(r, base)} |")
+        got = per.setdefault((r["lever"], r["task"]), [0, 0, 0, 0, 0, 0, 0])
+        got[0] += 1
+        got[1] += bool(rewinds)
+        got[2] += bool(r["finished_cleanly"])
+        got[3] += bool(r["completed"]) and bool(rewinds)
+        got[4] += base is not None and bool(base)
+        got[5] += bool(r["finished_cleanly"]) and base is False  # rescued
+        got[6] += not r["finished_cleanly"] and base is True  # lost
+    if not rows:
+        return ""
+    said = [
+        f"`{named[lever]}` on the {task}: {n} trials, the grasp tried again on {retried} (completed after it on "
+        f"{after}); {finished} finished cleanly, where the method finished {base} on those seeds ({rescued} "
+        f"rescued, {lost} lost)"
+        for (lever, task), (n, retried, finished, after, base, rescued, lost) in per.items()
+    ]
+    cols = ("lever", "task", "seed", "rewinds began, s after the first expected contact",
+            "the object across the table from where it started there, mm", "the trial",
+            "the method it is on, that seed")  # fmt: skip
+    return (
+        "\n## A lost grasp tried again\n\n"
+        "Each lever trial that tries a lost grasp again (`pacing=lift_retry`: once the object has lain 0.5 s "
+        "on the table while the reference lifts it, more than 3.5 cm from the reference's and with at most "
+        "one finger on it, the reference's clock runs back at 3x to 0.5 s before its first expected contact, "
+        "the wrist moved to where the object lies, and on again; rewinds take at most 8 s in all), from its "
+        "record and time series: when each rewind began, where the object lay then, how the trial ended, and "
+        "how the method's trial on that seed ended. "
+        + "; ".join(said)
+        + ".\n\n| " + " | ".join(cols) + " |\n|" + "---|" * 3 + "--:|" * 2 + "---|---|\n"
+        + "\n".join(rows)
+        + "\n"
+        + finer_levers(
+            lever_frame(study),
+            with_heldout(study, chosen),
+            "pacing=lift_retry",
+            "that try a lost grasp again (a `pacing=lift_retry` override",
+        )
+    )
 
 
 def paced_lift(study, chosen: pd.DataFrame) -> str:
@@ -2956,12 +3028,17 @@ def finer_models(df: pd.DataFrame) -> str:
 OUTCOME_MARKS = {"clean": "✓", "completed": "c", "failed": "✗", "none": "·"}
 
 
-def finer_levers(levers: pd.DataFrame, every: pd.DataFrame) -> str:
-    """The lever trials with another planning model (a ``rollout=`` override; ``levers``:
-    :func:`lever_frame`) beside the method each ran on (its trials in ``every``, :func:`with_heldout`), per
-    task and block of ten seeds, seed by seed: the method's row, then each such lever's on it, on the seeds
-    the levers ran; the counts over those seeds."""
-    fine = levers[levers["lever"].str.contains("rollout=")] if len(levers) else levers
+def finer_levers(
+    levers: pd.DataFrame,
+    every: pd.DataFrame,
+    match: str = "rollout=",
+    which: str = "with another planning model (a `rollout=` override",
+) -> str:
+    """The lever trials with another planning model (a ``rollout=`` override, or whose lever names
+    ``match``, described as ``which``; ``levers``: :func:`lever_frame`) beside the method each ran on (its
+    trials in ``every``, :func:`with_heldout`), per task and block of ten seeds, seed by seed: the method's
+    row, then each such lever's on it, on the seeds the levers ran; the counts over those seeds."""
+    fine = levers[levers["lever"].str.contains(match, regex=False)] if len(levers) else levers
     if not len(fine):
         return ""
 
@@ -2998,7 +3075,7 @@ def finer_levers(levers: pd.DataFrame, every: pd.DataFrame) -> str:
                         f"| {task} | {seeds_[0]}-{seeds_[-1]} | {name} | `{code}` | {of(k, n)} | {of(c, n)} |"
                     )
     return (
-        "\nSeed by seed, the lever trials with another planning model (a `rollout=` override, kept in "
+        f"\nSeed by seed, the lever trials {which}, kept in "
         f"`{LEVERS}/`) beside the method each ran on, in blocks of ten seeds (seeds {HELDOUT_SEEDS} held "
         f"out; `{OUTCOME_MARKS['clean']}` finished cleanly, `{OUTCOME_MARKS['completed']}` completed only, "
         f"`{OUTCOME_MARKS['failed']}` not completed, `{OUTCOME_MARKS['none']}` not run); the counts over the "
@@ -4500,6 +4577,7 @@ def report(study) -> str:
         + "\n## Where the object rests before the hand arrives\n\n"
         + from_figures(study, SETTLES, settles, "Not run yet (`python studies/method/settle.py`).\n")
         + paced_lift(study, df)
+        + retried_grasps(study, df)
         + "\n## What holds the carried object\n\n"
         + grasp_section(study)
         + "\n## Letting go\n\n"
