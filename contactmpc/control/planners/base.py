@@ -19,6 +19,7 @@ from typing import Annotated, NamedTuple
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from contactmpc.control.cost import as_index
 from contactmpc.control.grip import Grip
@@ -197,11 +198,14 @@ class Planner:
             per control second).
         pace_retry_budget: control time the rewinds may take in all (s).
         pace_retry_fingers: the most fingers on the object (:meth:`fingers_touching`) for it to count as lost.
+        pace_retry_tilt: the most the object may be tilted from how it starts (rad, its vertical axis) for a
+            rewind: one that has fallen on its side or over is not tried again. ``None``: any.
         pace_retry_follow: ``(start, end)`` seconds after the first expected contact: a rewind also moves the
-            wrist's translation across the table by where the object now lies from where the reference has
-            it at ``pace_retry_to`` (its horizontal offset), wholly on the control points up to ``start``
-            and fading to none at ``end`` by each point's Greville abscissa, so the hand comes to the object
-            where it lies and carries it back onto the reference's path. ``None``: the reference's wrist.
+            wrist as the object has moved on the table from where the reference has it at ``pace_retry_to``
+            (its horizontal offset and its turn about the vertical, the wrist's pose turned about the
+            reference's object), wholly on the control points up to ``start`` and fading to none at ``end``
+            by each point's Greville abscissa, so the hand comes to the object where it lies and carries it
+            back onto the reference's path. ``None``: the reference's wrist.
         carry_gain: carry the object where the reference has it (not the paper's; 1/s): while the free
             object and the reference's are both more than ``carry_lift`` above where the object starts
             (it is carried), each plan moves the wrist's committed translation, on the control points from
@@ -333,6 +337,7 @@ class Planner:
         pace_retry_rate: Annotated[float, Gt(0)] = 3.0,
         pace_retry_budget: Annotated[float, Ge(0)] = 8.0,
         pace_retry_fingers: Annotated[int, Ge(0)] = 1,
+        pace_retry_tilt: Annotated[float, Gt(0)] | None = None,
         pace_retry_follow: tuple[float, float] | None = None,
         carry_gain: Annotated[float, Ge(0)] = 0.0,
         carry_lift: Annotated[float, Ge(0)] = 0.02,
@@ -403,6 +408,7 @@ class Planner:
         self.pace_retry_rate = float(pace_retry_rate)
         self.pace_retry_budget = float(pace_retry_budget)
         self.pace_retry_fingers = int(pace_retry_fingers)
+        self.pace_retry_tilt = None if pace_retry_tilt is None else float(pace_retry_tilt)
         self.pace_retry_follow = time_window("planner.pace_retry_follow", pace_retry_follow)
         self._lost_since: float | None = None  # (pace_retry) control time the object has lain lost since
         self._retry_spent = 0.0  # (pace_retry) control time the rewinds took so far
@@ -912,6 +918,10 @@ class Planner:
             and lag > self.pace_lag
             and self.fingers_touching(state) <= self.pace_retry_fingers
         )
+        if lost and self.pace_retry_tilt is not None:  # (fallen on its side or over: not tried again)
+            up = _rotation(qo[c + 3 : c + 7]).apply([0.0, 0.0, 1.0])
+            was = _rotation(track.object_qpos[0, c + 3 : c + 7]).apply([0.0, 0.0, 1.0])
+            lost = float(np.arccos(np.clip(up @ was, -1.0, 1.0))) <= self.pace_retry_tilt
         if not lost:
             self._lost_since = None
             return False
@@ -935,9 +945,10 @@ class Planner:
         self.theta[reset] = problem.theta0[reset]
         if self.pace_retry_follow is not None:  # the wrist to where the object lies
             start, end = self.pace_retry_follow
-            offset = qo[c : c + 2] - track.object_qpos[track.index(to), c : c + 2]
             weight = np.clip((first + end - spline.greville(reset)) / (end - start), 0.0, 1.0)
-            self.theta[reset, :2] += weight[:, None] * offset[None]
+            self.theta[reset, :6] = followed(
+                self.theta[reset, :6], track.object_qpos[track.index(to), c : c + 7], qo[c : c + 7], weight
+            )
         self._kept = None
         return True
 
@@ -1423,6 +1434,33 @@ class Planner:
         if self._noise_scale is not None:
             noise *= self._noise_scale
         return np.concatenate([nominal[None], nominal[None] + noise], axis=0)
+
+
+def _rotation(quat) -> Rotation:
+    """The rotation of a MuJoCo quaternion (w, x, y, z)."""
+    w, x, y, z = np.asarray(quat, float)
+    return Rotation.from_quat([x, y, z, w])
+
+
+def followed(wrist: np.ndarray, was: np.ndarray, now: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """Wrist poses (K, 6) (x, y, z and the hinges rx, ry, rz: ``Rx(rx) @ Ry(ry) @ Rz(rz)``) moved as an
+    object has moved on the table from pose ``was`` to ``now`` (7: position, quaternion w x y z): its
+    horizontal offset and its turn about the vertical through it, each pose by its ``weight`` (K,) of that
+    (1: all of it, 0: none); the hinges kept within half a turn of their own."""
+    turn = _rotation(now[3:]) * _rotation(was[3:]).inv()
+    m = turn.as_matrix()
+    yaw = float(np.arctan2(m[1, 0], m[0, 0]))  # (its turn about the vertical)
+    out = np.array(wrist, float)
+    for k, w in enumerate(np.asarray(weight, float)):
+        if w <= 0.0:
+            continue
+        about = Rotation.from_euler("z", w * yaw)
+        out[k, :2] = (
+            was[:2] + w * (now[:2] - was[:2]) + about.apply(np.r_[wrist[k, :2] - was[:2], 0.0])[:2]
+        )
+        angles = (about * Rotation.from_euler("XYZ", wrist[k, 3:6])).as_euler("XYZ")
+        out[k, 3:6] = wrist[k, 3:6] + (angles - wrist[k, 3:6] + np.pi) % (2 * np.pi) - np.pi
+    return out
 
 
 def fingers_of(names, links) -> set[str]:
