@@ -680,6 +680,7 @@ def test_pace_retry_rewinds_to_before_the_first_contact_once_the_object_has_lain
     lifted[[0, 2]] += 0.05, 0.03  # 3 cm above where it starts, 5.4 cm from the reference's
     assert planner.fingers_touching(at(on_table)) <= 1  # (the hand at its zero configuration: lost)
     planner.theta[:] += 1.0  # committed control points other than the reference's own
+    planner._carry[:] = 0.01  # and a carry's shift in them
     planner.pace(0.3, 0.3, at(on_table))  # before the first expected contact: never lost
     off.pace(0.3, 0.3, at(on_table))
     for t in (0.8, 0.9):  # lost from 0.8 s (and held, as without the option); 0.1 s on: no rewind yet
@@ -691,6 +692,7 @@ def test_pace_retry_rewinds_to_before_the_first_contact_once_the_object_has_lain
         planner.reference_time(np.array([1.1, 1.2, 1.35, 1.5])), [0.8, 0.6, 0.3, 0.45], atol=1e-12
     )
     assert planner.retried_at == [1.1] and planner.rewinding(1.2) and not planner.waiting(1.2)
+    assert not planner._carry.any()  # (the carry's shift goes with the committed points)
     reset = problem.spline.window_indices(0.3, problem.spline.domain[1] - 0.3)
     np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset])
     assert np.all(planner.theta[: reset[0]] == problem.theta0[: reset[0]] + 1.0)

@@ -901,8 +901,8 @@ class Planner:
         lain lost (on the table, left behind by the reference's lift) for ``pace_retry`` and the rewind fits
         the budget left: the clock runs backwards to
         ``pace_retry_to`` before the first expected contact, the committed control points from there on go
-        to the reference's own (the wrist moved to the object with ``pace_retry_follow``) and the kept
-        runners-up are dropped. Returns whether it rewound."""
+        to the reference's own (the wrist moved to the object with ``pace_retry_follow``), the carry's shift
+        with them, and the kept runners-up are dropped. Returns whether it rewound."""
         problem = self.problem
         first, last = problem.first_contact, problem.last_contact
         free = problem.scene.task.layout.free_columns
@@ -950,6 +950,7 @@ class Planner:
                 self.theta[reset, :6], track.object_qpos[track.index(to), c : c + 7], qo[c : c + 7], weight
             )
         self._kept = None
+        self._carry, self._carry_since = np.zeros(6), None  # (carry_gain: its shift went with them)
         return True
 
     def controls(self, theta: np.ndarray, basis: np.ndarray, times=None) -> np.ndarray:
