@@ -748,37 +748,6 @@ def test_pace_retry_rewinds_to_before_the_first_contact_once_the_object_has_lain
         p.close()
 
 
-def test_a_followed_wrist_keeps_its_pose_on_the_object_as_the_object_moved_on_the_table() -> None:
-    """followed (planner.pace_retry_follow): with weight 1 a wrist pose keeps its position and orientation in
-    the frame of an object that has moved across the table and turned about the vertical (any tilt of the
-    hand kept); with weight 0 it is unchanged; in between it is moved part of the way; the hinges stay
-    within half a turn of their own."""
-    from scipy.spatial.transform import Rotation
-
-    from contactmpc.control.planners.base import followed
-
-    def quat(yaw):
-        return np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
-
-    was = np.r_[0.2, -0.5, 0.03, quat(0.0)]
-    now = np.r_[0.15, -0.42, 0.03, quat(0.7)]
-    wrist = np.array([[0.35, -0.6, 0.2, 0.4, -0.3, 3.0], [0.3, -0.55, 0.15, -0.2, 0.5, -1.0]])
-    moved = followed(wrist, was, now, np.array([1.0, 0.0]))
-    np.testing.assert_array_equal(moved[1], wrist[1])  # weight 0
-    turn = Rotation.from_euler("z", 0.7)
-    in_was = np.r_[wrist[0, :2] - was[:2], 0.0]
-    np.testing.assert_allclose(moved[0, :2], now[:2] + turn.apply(in_was)[:2], atol=1e-12)
-    assert moved[0, 2] == wrist[0, 2]  # (heights kept)
-    before = Rotation.from_euler("XYZ", wrist[0, 3:])
-    after = Rotation.from_euler("XYZ", moved[0, 3:])
-    np.testing.assert_allclose((after * before.inv()).as_rotvec(), [0.0, 0.0, 0.7], atol=1e-9)
-    assert np.all(np.abs(moved[0, 3:] - wrist[0, 3:]) <= np.pi + 1e-12)  # (3.0 rad and on: no wrap to -pi)
-    half = followed(wrist[:1], was, now, np.array([0.5]))
-    np.testing.assert_allclose(
-        half[0, :2], was[:2] + 0.5 * (now[:2] - was[:2]) + Rotation.from_euler("z", 0.35).apply(in_was)[:2]
-    )
-
-
 def _paced_problem(scene_for, release=None):
     """The apple's problem on a static reference expecting contact from 0.2 to 0.7 s of its demonstration
     (letting go on the ``release`` schedule), and a function that puts an object configuration into a

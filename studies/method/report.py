@@ -2104,7 +2104,7 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
         "Each lever trial that tries a lost grasp again (`pacing=lift_retry`: once the object has lain 0.5 s "
         "on the table while the reference lifts it, more than 3.5 cm from the reference's, with at most one "
         "finger on it and not fallen over, the reference's clock runs back at 3x to 0.5 s before its first "
-        "expected contact, the wrist moved and turned as the object has, and on again; rewinds take at most "
+        "expected contact, the wrist moved across the table to where the object lies, and on again; rewinds take at most "
         "8 s in all), from its "
         "record and time series: when each rewind began, where the object lay then, how the trial ended, and "
         "how the method's trial on that seed ended. "

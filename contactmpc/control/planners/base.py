@@ -201,11 +201,11 @@ class Planner:
         pace_retry_tilt: the most the object may be tilted from how it starts (rad, its vertical axis) for a
             rewind: one that has fallen on its side or over is not tried again. ``None``: any.
         pace_retry_follow: ``(start, end)`` seconds after the first expected contact: a rewind also moves the
-            wrist as the object has moved on the table from where the reference has it at ``pace_retry_to``
-            (its horizontal offset and its turn about the vertical, the wrist's pose turned about the
-            reference's object), wholly on the control points up to ``start`` and fading to none at ``end``
-            by each point's Greville abscissa, so the hand comes to the object where it lies and carries it
-            back onto the reference's path. ``None``: the reference's wrist.
+            wrist's translation across the table by where the object now lies from where the reference has
+            it at ``pace_retry_to`` (its horizontal offset; not its turn), wholly on the control points up to
+            ``start`` and fading to none at ``end`` by each point's Greville abscissa, so the hand comes to the
+            object where it lies and carries it back onto the reference's path. ``None``: the reference's
+            wrist.
         carry_gain: carry the object where the reference has it (not the paper's; 1/s): while the free
             object and the reference's are both more than ``carry_lift`` above where the object starts
             (it is carried), each plan moves the wrist's committed translation, on the control points from
@@ -946,9 +946,8 @@ class Planner:
         if self.pace_retry_follow is not None:  # the wrist to where the object lies
             start, end = self.pace_retry_follow
             weight = np.clip((first + end - spline.greville(reset)) / (end - start), 0.0, 1.0)
-            self.theta[reset, :6] = followed(
-                self.theta[reset, :6], track.object_qpos[track.index(to), c : c + 7], qo[c : c + 7], weight
-            )
+            offset = qo[c : c + 2] - track.object_qpos[track.index(to), c : c + 2]
+            self.theta[reset, :2] += weight[:, None] * offset[None]
         self._kept = None
         self._carry, self._carry_since = np.zeros(6), None  # (carry_gain: its shift went with them)
         return True
@@ -1441,27 +1440,6 @@ def _rotation(quat) -> Rotation:
     """The rotation of a MuJoCo quaternion (w, x, y, z)."""
     w, x, y, z = np.asarray(quat, float)
     return Rotation.from_quat([x, y, z, w])
-
-
-def followed(wrist: np.ndarray, was: np.ndarray, now: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    """Wrist poses (K, 6) (x, y, z and the hinges rx, ry, rz: ``Rx(rx) @ Ry(ry) @ Rz(rz)``) moved as an
-    object has moved on the table from pose ``was`` to ``now`` (7: position, quaternion w x y z): its
-    horizontal offset and its turn about the vertical through it, each pose by its ``weight`` (K,) of that
-    (1: all of it, 0: none); the hinges kept within half a turn of their own."""
-    turn = _rotation(now[3:]) * _rotation(was[3:]).inv()
-    m = turn.as_matrix()
-    yaw = float(np.arctan2(m[1, 0], m[0, 0]))  # (its turn about the vertical)
-    out = np.array(wrist, float)
-    for k, w in enumerate(np.asarray(weight, float)):
-        if w <= 0.0:
-            continue
-        about = Rotation.from_euler("z", w * yaw)
-        out[k, :2] = (
-            was[:2] + w * (now[:2] - was[:2]) + about.apply(np.r_[wrist[k, :2] - was[:2], 0.0])[:2]
-        )
-        angles = (about * Rotation.from_euler("XYZ", wrist[k, 3:6])).as_euler("XYZ")
-        out[k, 3:6] = wrist[k, 3:6] + (angles - wrist[k, 3:6] + np.pi) % (2 * np.pi) - np.pi
-    return out
 
 
 def fingers_of(names, links) -> set[str]:
