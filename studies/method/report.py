@@ -2075,11 +2075,24 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
     if found is None:
         return ""
     ok, _, named, _ = found
-    rows, per = [], {}
+    rows, per, figures = [], {}, []
     for r, rewinds, base in _paced_trials(found, grasp_retries):
         when = ", ".join(f"{a:+.1f}" for a, _ in rewinds) or "—"
         where = ", ".join(f"{b:.0f}" for _, b in rewinds) or "—"
-        rows.append(f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {when} | {where} | {_ended(r, base)} |")
+        ttf = "—" if pd.isna(r.get("ttf")) else f"{float(r['ttf']):.2f}"
+        rows.append(
+            f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {when} | {where} | {ttf} | {_ended(r, base)} |"
+        )
+        run = Path(r["record_path"]).parent
+        if rewinds:  # (its timeline: the object lost, and what the grasp tried again did)
+            link = study.draw(
+                f"timeline_{r['task']}_retry_seed{r['seed']}.png",
+                lambda path, run=run: timeline(run, path),
+                f"timeline: {r['task']}, the grasp tried again, seed {r['seed']}",
+                data=run / "timeseries.npz",
+            )
+            if link is not None:
+                figures.append(f"- {r['task']}, seed {r['seed']} (rewinds at {when} s): {link}")
         got = per.setdefault((r["lever"], r["task"]), [0, 0, 0, 0, 0, 0, 0])
         got[0] += 1
         got[1] += bool(rewinds)
@@ -2096,8 +2109,8 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
         f"rescued, {lost} lost)"
         for (lever, task), (n, retried, finished, after, base, rescued, lost) in per.items()
     ]
-    cols = ("lever", "task", "seed", "rewinds began, s after the first expected contact",
-            "the object across the table from where it started there, mm", "the trial",
+    cols = ("lever", "task", "seed", "rewinds began, s of control time after the first expected contact",
+            "the object across the table from where it started there, mm", "TTF", "the trial",
             "the method it is on, that seed")  # fmt: skip
     return (
         "\n## A lost grasp tried again\n\n"
@@ -2109,9 +2122,18 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
         "record and time series: when each rewind began, where the object lay then, how the trial ended, and "
         "how the method's trial on that seed ended. "
         + "; ".join(said)
-        + ".\n\n| " + " | ".join(cols) + " |\n|" + "---|" * 3 + "--:|" * 2 + "---|---|\n"
+        + ". A trial's TTF counts its first loss: a grasp won again does not undo it.\n\n| "
+        + " | ".join(cols) + " |\n|" + "---|" * 3 + "--:|" * 3 + "---|---|\n"
         + "\n".join(rows)
         + "\n"
+        + (
+            "\nThe timeline of each trial that tried its grasp again (the reference's time runs back at each "
+            "rewind, so the timeline's object error there is against the reference's earlier pose):\n\n"
+            + "\n".join(figures)
+            + "\n"
+            if figures
+            else ""
+        )
         + finer_levers(
             lever_frame(study),
             with_heldout(study, chosen),
