@@ -186,7 +186,8 @@ class Planner:
             where, between the reference's first and last expected contact, the free object has lain this
             long not lifted (not more than ``carry_lift`` above where it starts) while the reference has it
             lifted (more than that), more than ``pace_lag`` from the reference's, with at most
-            ``pace_retry_fingers`` fingers on it (a lift that left it behind, or dropped it), the
+            ``pace_retry_fingers`` fingers on it (a lift that left it behind, or dropped it), once the
+            reference is not waiting for it (the wait's ``pace_budget`` spent), the
             reference's clock runs backwards at ``pace_retry_rate`` to ``pace_retry_to`` before the first
             expected contact, then on with control time: the hand comes to the object again, from the
             reference's own control points (``problem.theta0``) from there on. A rewind costs its
@@ -898,8 +899,8 @@ class Planner:
     def retry(self, t: float, at: float, s: float, state: np.ndarray) -> bool:
         """(``pace_retry``) Rewind a paced reference at reference time ``at`` where the plan takes effect
         (control time ``t``; the plan made at reference time ``s`` from ``state``) once the free object has
-        lain lost (on the table, left behind by the reference's lift) for ``pace_retry`` and the rewind fits
-        the budget left: the clock runs backwards to
+        lain lost (on the table, left behind by the reference's lift) for ``pace_retry``, the reference's clock
+        is not held for it and the rewind fits the budget left: the clock runs backwards to
         ``pace_retry_to`` before the first expected contact, the committed control points from there on go
         to the reference's own (the wrist moved to the object with ``pace_retry_follow``), the carry's shift
         with them, and the kept runners-up are dropped. Returns whether it rewound."""
@@ -932,6 +933,7 @@ class Planner:
         cost = back * (1.0 + 1.0 / self.pace_retry_rate)
         if (
             t - self._lost_since < self.pace_retry - 1e-9
+            or self.waiting(t)  # (the reference's own wait for the grasp first)
             or back <= 0.0
             or self._retry_spent + cost > self.pace_retry_budget + 1e-9
         ):
