@@ -673,7 +673,7 @@ def test_pace_retry_rewinds_to_before_the_first_contact_once_the_object_has_lain
         planner.bind(problem)
         return planner
 
-    planner, off = bound(**retry, pace_retry_budget=0.9), bound()
+    planner, off = bound(**retry, pace_retry_budget=1.4), bound()
     rest = problem.track.object_qpos[0]
     on_table = rest.copy()
     on_table[0] += 0.05  # pushed 5 cm across the table: on it, 5 cm from the reference's
@@ -684,50 +684,53 @@ def test_pace_retry_rewinds_to_before_the_first_contact_once_the_object_has_lain
     planner._carry[:] = 0.01  # and a carry's shift in them
     planner.pace(0.3, 0.3, at(on_table))  # before the first expected contact: never lost
     off.pace(0.3, 0.3, at(on_table))
-    for t in (0.8, 0.9):  # lost from 0.8 s and held (as without the option) until its 0.2 s are spent
+    for t in (0.8, 0.9, 1.1):  # lost from 0.8 s, held (as without the option) until its 0.2 s are spent
         planner.pace(t, 0.8, at(on_table))
         off.pace(t, 0.8, at(on_table))
         assert planner.clock == off.clock and planner.reference_time(1.0) == 0.8
-    planner.pace(1.1, 0.8, at(on_table))  # lost 0.3 s, the wait spent: back from 0.9 s to 0.3 s at 2x, on
+    planner.pace(1.4, 0.8, at(on_table))  # lost 0.3 s since the wait: back from 1.2 s to 0.3 s at 2x, on
     np.testing.assert_allclose(
-        planner.reference_time(np.array([1.1, 1.2, 1.4, 1.5])), [0.9, 0.7, 0.3, 0.4], atol=1e-12
+        planner.reference_time(np.array([1.4, 1.5, 1.85, 2.0])), [1.2, 1.0, 0.3, 0.45], atol=1e-12
     )
-    assert planner.retried_at == [1.1] and planner.rewinding(1.2) and not planner.waiting(1.2)
+    assert planner.retried_at == [1.4] and planner.rewinding(1.5) and not planner.waiting(1.5)
     reset = problem.spline.window_indices(0.3, problem.spline.domain[1] - 0.3)
     np.testing.assert_array_equal(planner.theta[reset], problem.theta0[reset])
     assert np.all(planner.theta[: reset[0]] == problem.theta0[: reset[0]] + 1.0)
     assert not planner._carry.any()  # (the carry's shift goes with the committed points)
     clock = planner.clock
-    planner.pace(1.2, 0.7, at(on_table))  # a rewind runs its course
+    planner.pace(1.5, 1.0, at(on_table))  # a rewind runs its course
     assert planner.clock == clock
-    planner.pace(1.5, 0.45, at(on_table))  # past the reference's lift again, still lost (its wait spent) ...
-    planner.pace(1.8, 0.7, at(on_table))  # ... 0.3 s: a second rewind would cost 0.6 s, none left
-    assert planner.retried_at == [1.1] and planner.reference_time(1.9) == pytest.approx(0.8)
-    wide = bound(**retry, pace_retry_budget=1.5)  # 1.5 s for both fits
-    for t, s in ((0.8, 0.8), (1.1, 0.8), (1.5, 0.45), (1.8, 0.7)):
+    planner.pace(2.0, 0.45, at(on_table))  # past the reference's lift again, still lost (its wait spent) ...
+    planner.pace(2.3, 0.75, at(on_table))  # ... 0.3 s: a second rewind would cost 0.675 s, 0.05 left
+    assert planner.retried_at == [1.4] and planner.reference_time(2.4) == pytest.approx(0.85)
+    wide = bound(**retry, pace_retry_budget=2.1)  # 2.025 s for both fits
+    for t, s in ((0.8, 0.8), (1.1, 0.8), (1.4, 0.8), (2.0, 0.45), (2.3, 0.75)):
         wide.pace(t, s, at(on_table))
-    assert wide.retried_at == [1.1, 1.8]
-    patient = bound(**retry, pace_budget=1.0)  # the reference's own wait first: none while it holds
+    assert wide.retried_at == [1.4, 2.3]
+    patient = bound(**retry, pace_budget=1.0)  # the reference's own wait first, and not counted
     for t in (0.8, 1.1, 1.5):
         patient.pace(t, 0.8, at(on_table))
     assert patient.retried_at == [] and patient.waiting(1.5)
-    patient.pace(1.9, 0.8, at(on_table))  # its 1 s spent at 1.8 s: lost since 0.8 s, so back now
-    assert patient.retried_at == [1.9]
+    patient.pace(1.9, 0.8, at(on_table))  # its 1 s spent at 1.8 s: lost since, not long enough
+    assert patient.retried_at == []
+    patient.pace(2.2, 0.8, at(on_table))  # lost 0.3 s since the wait
+    assert patient.retried_at == [2.2]
     waiter, held = bound(**retry), bound(**retry)  # lifted, or in a grasp of two fingers: never rewound
     held.fingers_touching = lambda state: 2
-    for t in (0.8, 1.1, 1.4):
+    for t in (0.8, 1.1, 1.4, 1.7):
         waiter.pace(t, 0.8, at(lifted))
         held.pace(t, 0.8, at(on_table))
     assert waiter.retried_at == [] == held.retried_at
     track.object_qpos[track.index(0.42) :, 2] -= 0.05  # a reference that never lifts it: not left behind
     down = bound(**retry)
-    for t in (0.8, 1.1, 1.4):
+    for t in (0.8, 1.1, 1.4, 1.7):
         down.pace(t, 0.8, at(on_table))
     assert down.retried_at == []
     track.object_qpos[track.index(0.42) :, 2] += 0.05
     follow = bound(**retry, pace_retry_follow=(0.2, 0.4))  # the wrist to where the object lies
-    follow.pace(0.8, 0.8, at(on_table))
-    follow.pace(1.1, 0.8, at(on_table))
+    for t in (0.8, 1.1, 1.4):
+        follow.pace(t, 0.8, at(on_table))
+    assert follow.retried_at == [1.4]
     weight = np.clip((first + 0.4 - problem.spline.greville(reset)) / 0.2, 0.0, 1.0)
     moved = follow.theta[reset] - problem.theta0[reset]
     np.testing.assert_allclose(moved[:, 0], 0.05 * weight, atol=1e-12)  # the object's offset, faded out
@@ -735,12 +738,12 @@ def test_pace_retry_rewinds_to_before_the_first_contact_once_the_object_has_lain
     tipped = on_table.copy()
     tipped[3:7] = np.cos(0.3), np.sin(0.3), 0.0, 0.0  # on its side (tilted 0.6 rad): not tried again
     upright = bound(**retry, pace_retry_tilt=0.5)
-    for t in (0.8, 1.1):
+    for t in (0.8, 1.1, 1.4):
         upright.pace(t, 0.8, at(tipped))
     assert upright.retried_at == []
-    upright.pace(1.4, 0.8, at(on_table))
     upright.pace(1.7, 0.8, at(on_table))
-    assert upright.retried_at == [1.7]
+    upright.pace(2.0, 0.8, at(on_table))
+    assert upright.retried_at == [2.0]
     waiter.bind(problem)  # a new trial's: no rewind made
     assert waiter.retried_at == [] and waiter.reference_time(2.0) == 2.0
     with pytest.raises(ConfigError, match="pace_retry"):

@@ -2114,10 +2114,10 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
             "the method it is on, that seed")  # fmt: skip
     return (
         "\n## A lost grasp tried again\n\n"
-        "Each lever trial that tries a lost grasp again (`pacing=lift_retry`: once the object has lain 0.5 s "
+        "Each lever trial that tries a lost grasp again (`pacing=lift_retry`: once the object has lain 1.5 s "
         "on the table while the reference lifts it, more than 3.5 cm from the reference's, with at most one "
-        "finger on it and not fallen over, once the paced wait for it (3 s) is spent, the reference's clock runs "
-        "back at 3x to 0.5 s before its first "
+        "finger on it and not fallen over, counted from the end of the paced wait for it (3 s), the "
+        "reference's clock runs back at 3x to 0.5 s before its first "
         "expected contact, the wrist moved across the table to where the object lies, and on again; rewinds take at most "
         "8 s in all), from its "
         "record and time series: when each rewind began, where the object lay then, how the trial ended, and "

@@ -186,8 +186,8 @@ class Planner:
             where, between the reference's first and last expected contact, the free object has lain this
             long not lifted (not more than ``carry_lift`` above where it starts) while the reference has it
             lifted (more than that), more than ``pace_lag`` from the reference's, with at most
-            ``pace_retry_fingers`` fingers on it (a lift that left it behind, or dropped it), once the
-            reference is not waiting for it (the wait's ``pace_budget`` spent), the
+            ``pace_retry_fingers`` fingers on it (a lift that left it behind, or dropped it), the
+            reference not waiting for it (its wait's time is not counted: ``pace_budget`` first), the
             reference's clock runs backwards at ``pace_retry_rate`` to ``pace_retry_to`` before the first
             expected contact, then on with control time: the hand comes to the object again, from the
             reference's own control points (``problem.theta0``) from there on. A rewind costs its
@@ -877,8 +877,6 @@ class Planner:
                 grasp = first is not None and first - 1e-9 <= s
                 self._grasp_behind = behind  # (all the grasp's waits, once the window is reached)
         spent = behind if grasp else behind - self._grasp_behind  # this rule's budget spent
-        if self.pace_retry is not None and self.retry(t, at, s, state):
-            return
         if (wait or grasp) and spent < self.pace_budget - 1e-9:
             scene, track = problem.scene, problem.track
             error = scene.task.layout.error(self.object_qpos(state), track.object_qpos[track.index(s)])
@@ -892,15 +890,19 @@ class Planner:
                 until = t + (self.pace_budget - spent) / (1.0 - self.pace_rate)
                 self._clock = (t, at, self.pace_rate, until)
                 self._paced_release = not grasp
+                self._lost_since = None  # (pace_retry: the reference's own wait first, its time not counted)
                 return
+        if self.pace_retry is not None and self.retry(t, at, s, state):
+            return
         if self._clock[2:] != (1.0, np.inf):  # (running on already: the same clock, exactly)
             self._clock = (t, at, 1.0, np.inf)
 
     def retry(self, t: float, at: float, s: float, state: np.ndarray) -> bool:
         """(``pace_retry``) Rewind a paced reference at reference time ``at`` where the plan takes effect
-        (control time ``t``; the plan made at reference time ``s`` from ``state``) once the free object has
-        lain lost (on the table, left behind by the reference's lift) for ``pace_retry``, the reference's clock
-        is not held for it and the rewind fits the budget left: the clock runs backwards to
+        (control time ``t``; the plan made at reference time ``s`` from ``state``; :meth:`pace` asks only
+        where this plan does not hold the clock) once the free object has lain lost (on the table, left behind
+        by the reference's lift) for ``pace_retry`` since the reference last waited for it, and the rewind fits
+        the budget left: the clock runs backwards to
         ``pace_retry_to`` before the first expected contact, the committed control points from there on go
         to the reference's own (the wrist moved to the object with ``pace_retry_follow``), the carry's shift
         with them, and the kept runners-up are dropped. Returns whether it rewound."""
@@ -933,7 +935,6 @@ class Planner:
         cost = back * (1.0 + 1.0 / self.pace_retry_rate)
         if (
             t - self._lost_since < self.pace_retry - 1e-9
-            or self.waiting(t)  # (the reference's own wait for the grasp first)
             or back <= 0.0
             or self._retry_spent + cost > self.pace_retry_budget + 1e-9
         ):
