@@ -2123,7 +2123,9 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
         "record and time series: when each rewind began, where the object lay then, how the trial ended, and "
         "how the method's trial on that seed ended. "
         + "; ".join(said)
-        + ". A trial's TTF counts its first loss: a grasp won again does not undo it.\n\n| "
+        + ". A trial's TTF counts its first loss: a grasp won again does not undo it. The lever's rule (when "
+        "a grasp counts as lost, how long after the paced wait, the wrist moved but not turned) was set on "
+        "these trials' seeds, so for it none of them is held out.\n\n| "
         + " | ".join(cols) + " |\n|" + "---|" * 3 + "--:|" * 3 + "---|---|\n"
         + "\n".join(rows)
         + "\n"
