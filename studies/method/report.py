@@ -2017,7 +2017,8 @@ def _paced_levers(study, chosen: pd.DataFrame, kind: str):
     # the pacing its record composed (a lever on a paced method names none: pacing=lift is hold's, at 3.5 cm)
     kinds = (kind, "lift") if kind == "hold" else (kind,)
     paced = ok["pacing"].astype(str) if "pacing" in ok else pd.Series("", index=ok.index)
-    ok = ok[[any(k in p for k in kinds) and ("retry" in p) == ("retry" in kind) for p in paced]]  # (retry: its own)
+    # (a retry lever is shown apart: its own kind)
+    ok = ok[[any(k in p for k in kinds) and ("retry" in p) == ("retry" in kind) for p in paced]]
     if not len(ok):
         return None
     every = with_heldout(study, chosen)
@@ -2063,7 +2064,8 @@ def grasp_retries(record_path) -> list[tuple[float, float]] | None:
     out = []
     for at in times:
         k = min(int(np.searchsorted(t, at)), len(t) - 1)
-        out.append((float(at) - float(record["contact_span_start"]), float(np.linalg.norm(xy[k] - xy[0])) * 1e3))
+        moved = float(np.linalg.norm(xy[k] - xy[0])) * 1e3
+        out.append((float(at) - float(record["contact_span_start"]), moved))
     return out
 
 
@@ -2080,9 +2082,8 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
         when = ", ".join(f"{a:+.1f}" for a, _ in rewinds) or "—"
         where = ", ".join(f"{b:.0f}" for _, b in rewinds) or "—"
         ttf = "—" if pd.isna(r.get("ttf")) else f"{float(r['ttf']):.2f}"
-        rows.append(
-            f"| `{named[r['lever']]}` | {r['task']} | {r['seed']} | {when} | {where} | {ttf} | {_ended(r, base)} |"
-        )
+        cells = (f"`{named[r['lever']]}`", r["task"], r["seed"], when, where, ttf, _ended(r, base))
+        rows.append("| " + " | ".join(map(str, cells)) + " |")
         run = Path(r["record_path"]).parent
         if rewinds:  # (its timeline: the object lost, and what the grasp tried again did)
             link = study.draw(
@@ -2104,9 +2105,9 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
     if not rows:
         return ""
     said = [
-        f"`{named[lever]}` on the {task}: {n} trials, the grasp tried again on {retried} (completed after it on "
-        f"{after}); {finished} finished cleanly, where the method finished {base} on those seeds ({rescued} "
-        f"rescued, {lost} lost)"
+        f"`{named[lever]}` on the {task}: {n} trials, the grasp tried again on {retried} (completed after it "
+        f"on {after}); {finished} finished cleanly, where the method finished {base} on those seeds "
+        f"({rescued} rescued, {lost} lost)"
         for (lever, task), (n, retried, finished, after, base, rescued, lost) in per.items()
     ]
     cols = ("lever", "task", "seed", "rewinds began, s of control time after the first expected contact",
@@ -2117,9 +2118,8 @@ def retried_grasps(study, chosen: pd.DataFrame) -> str:
         "Each lever trial that tries a lost grasp again (`pacing=lift_retry`: once the object has lain 1.5 s "
         "on the table while the reference lifts it, more than 3.5 cm from the reference's, with at most one "
         "finger on it and not fallen over, counted from the end of the paced wait for it (3 s), the "
-        "reference's clock runs back at 3x to 0.5 s before its first "
-        "expected contact, the wrist moved across the table to where the object lies, and on again; rewinds take at most "
-        "8 s in all), from its "
+        "reference's clock runs back at 3x to 0.5 s before its first expected contact, the wrist moved "
+        "across the table to where the object lies, and on again; rewinds take at most 8 s in all), from its "
         "record and time series: when each rewind began, where the object lay then, how the trial ended, and "
         "how the method's trial on that seed ended. "
         + "; ".join(said)

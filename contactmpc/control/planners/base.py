@@ -204,9 +204,9 @@ class Planner:
         pace_retry_follow: ``(start, end)`` seconds after the first expected contact: a rewind also moves the
             wrist's translation across the table by where the object now lies from where the reference has
             it at ``pace_retry_to`` (its horizontal offset; not its turn), wholly on the control points up to
-            ``start`` and fading to none at ``end`` by each point's Greville abscissa, so the hand comes to the
-            object where it lies and carries it back onto the reference's path. ``None``: the reference's
-            wrist.
+            ``start`` and fading to none at ``end`` by each point's Greville abscissa, so the hand comes to
+            the object where it lies and carries it back onto the reference's path. ``None``: the
+            reference's wrist.
         carry_gain: carry the object where the reference has it (not the paper's; 1/s): while the free
             object and the reference's are both more than ``carry_lift`` above where the object starts
             (it is carried), each plan moves the wrist's committed translation, on the control points from
@@ -900,9 +900,9 @@ class Planner:
     def retry(self, t: float, at: float, s: float, state: np.ndarray) -> bool:
         """(``pace_retry``) Rewind a paced reference at reference time ``at`` where the plan takes effect
         (control time ``t``; the plan made at reference time ``s`` from ``state``; :meth:`pace` asks only
-        where this plan does not hold the clock) once the free object has lain lost (on the table, left behind
-        by the reference's lift) for ``pace_retry`` since the reference last waited for it, and the rewind fits
-        the budget left: the clock runs backwards to
+        where this plan does not hold the clock) once the free object has lain lost (on the table, left
+        behind by the reference's lift) for ``pace_retry`` since the reference last waited for it, and the
+        rewind fits the budget left: the clock runs backwards to
         ``pace_retry_to`` before the first expected contact, the committed control points from there on go
         to the reference's own (the wrist moved to the object with ``pace_retry_follow``), the carry's shift
         with them, and the kept runners-up are dropped. Returns whether it rewound."""
