@@ -892,24 +892,24 @@ class Planner:
                 self._paced_release = not grasp
                 self._lost_since = None  # (pace_retry: the reference's own wait first, its time not counted)
                 return
-        if self.pace_retry is not None and self.retry(t, at, s, state):
+        if self.pace_retry is not None and self.retry(t, at, s, state, wait):
             return
         if self._clock[2:] != (1.0, np.inf):  # (running on already: the same clock, exactly)
             self._clock = (t, at, 1.0, np.inf)
 
-    def retry(self, t: float, at: float, s: float, state: np.ndarray) -> bool:
+    def retry(self, t: float, at: float, s: float, state: np.ndarray, span: bool) -> bool:
         """(``pace_retry``) Rewind a paced reference at reference time ``at`` where the plan takes effect
-        (control time ``t``; the plan made at reference time ``s`` from ``state``; :meth:`pace` asks only
-        where this plan does not hold the clock) once the free object has lain lost (on the table, left
-        behind by the reference's lift) for ``pace_retry`` since the reference last waited for it, and the
-        rewind fits the budget left: the clock runs backwards to
-        ``pace_retry_to`` before the first expected contact, the committed control points from there on go
-        to the reference's own (the wrist moved to the object with ``pace_retry_follow``), the carry's shift
-        with them, and the kept runners-up are dropped. Returns whether it rewound."""
+        (control time ``t``; the plan made at reference time ``s`` from ``state``, ``span``: in the
+        reference's contact span; :meth:`pace` asks only where this plan does not hold the clock) once the
+        free object has lain lost (on the table, left behind by the reference's lift) for ``pace_retry``
+        since the reference last waited for it, and the rewind fits the budget left: the clock runs
+        backwards to ``pace_retry_to`` before the first expected contact, the committed control points from
+        there on go to the reference's own (the wrist moved to the object with ``pace_retry_follow``), the
+        carry's shift with them, and the kept runners-up are dropped. Returns whether it rewound."""
         problem = self.problem
-        first, last = problem.first_contact, problem.last_contact
+        first = problem.first_contact
         free = problem.scene.task.layout.free_columns
-        if not len(free) or first is None or not (first - 1e-9 <= s and (last is None or s < last - 1e-9)):
+        if not span or not len(free):
             self._lost_since = None
             return False
         c, track = free[0], problem.track
