@@ -19,7 +19,6 @@ from typing import Annotated, NamedTuple
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from contactmpc.control.cost import as_index
 from contactmpc.control.grip import Grip
@@ -29,6 +28,7 @@ from contactmpc.control.problem import Problem
 from contactmpc.control.release import retraction, time_window
 from contactmpc.control.robust import ModelEnsemble
 from contactmpc.control.rollout import RolloutEngine
+from contactmpc.tasks.layout import tilt_angle
 from contactmpc.validate import ConfigError, Ge, Gt, checked
 
 
@@ -913,18 +913,15 @@ class Planner:
             self._lost_since = None
             return False
         c, track = free[0], problem.track
-        qo = self.object_qpos(state)
-        lag = float(problem.scene.task.layout.error(qo, track.object_qpos[track.index(s)]).position)
-        start, expected = track.object_qpos[0, c + 2], track.object_qpos[track.index(s), c + 2]
+        qo, expected, begun = self.object_qpos(state), track.object_qpos[track.index(s)], track.object_qpos[0]
+        lag = float(problem.scene.task.layout.error(qo, expected).position)
         lost = (
-            qo[c + 2] - start <= self.carry_lift < expected - start
+            qo[c + 2] - begun[c + 2] <= self.carry_lift < expected[c + 2] - begun[c + 2]
             and lag > self.pace_lag
             and self.fingers_touching(state) <= self.pace_retry_fingers
         )
         if lost and self.pace_retry_tilt is not None:  # (fallen on its side or over: not tried again)
-            up = _rotation(qo[c + 3 : c + 7]).apply([0.0, 0.0, 1.0])
-            was = _rotation(track.object_qpos[0, c + 3 : c + 7]).apply([0.0, 0.0, 1.0])
-            lost = float(np.arccos(np.clip(up @ was, -1.0, 1.0))) <= self.pace_retry_tilt
+            lost = float(tilt_angle(qo[c + 3 : c + 7], begun[c + 3 : c + 7])) <= self.pace_retry_tilt
         if not lost:
             self._lost_since = None
             return False
@@ -1437,12 +1434,6 @@ class Planner:
         if self._noise_scale is not None:
             noise *= self._noise_scale
         return np.concatenate([nominal[None], nominal[None] + noise], axis=0)
-
-
-def _rotation(quat) -> Rotation:
-    """The rotation of a MuJoCo quaternion (w, x, y, z)."""
-    w, x, y, z = np.asarray(quat, float)
-    return Rotation.from_quat([x, y, z, w])
 
 
 def fingers_of(names, links) -> set[str]:
