@@ -5,10 +5,10 @@ named combination such as ``wrist_clearance``) with twelve independent groups on
 sampled | acquire | carry``), ``shaping`` (``none | surface | clearance | clearance_grasp``), ``release``
 (``none | reset | open | scheduled | flat | backoff | eased | ...``), ``compensation`` (``none | predict``),
 ``effort`` (``uniform | acquire | acquire_half | acquire_short | acquire_long | acquire_grasped |
-acquire_waiting``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | lift | release | ...``),
-``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze | carried | touched``), ``retarget``
-(``none | wrist``), ``rollout`` (``paper | fine``) and ``reuse`` (``none | elites | elites_expected |
-elites_grasped | ...``).
+acquire_waiting | acquire_error``), ``place`` (``none | wrist``), ``pacing`` (``none | hold | lift | release |
+...``), ``carry`` (``none | wrist | pose | held``), ``grip`` (``none | squeeze | carried | touched``),
+``retarget`` (``none | wrist``), ``rollout`` (``paper | fine``) and ``reuse`` (``none | elites |
+elites_expected | elites_grasped | ...``).
 Records made before the groups existed name the combination by one variant label (``variant:
 release_flat``); records made before the release schedule was one object store its options as flat sampler
 keys (``sampler.release_pause``); records made before a group existed read as its default.

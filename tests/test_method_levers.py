@@ -912,6 +912,54 @@ def test_acquire_waiting_keeps_the_grasps_samples_while_the_paced_reference_wait
         PredictiveSampling(pace_lag=0.02, acquire_waiting=True)
 
 
+def test_acquire_error_draws_the_grasps_samples_while_the_object_is_off_the_reference(scene_for):
+    """planner.acquire_error: after the acquire window and before the last expected contact, a plan from a
+    state whose free object is more than its position (or rotation) off the reference's draws
+    acquire_samples and is counted; one whose object is back draws num_samples, as every plan does off.
+    Past the last expected contact it does not act. Without acquire_samples, or with a bad pair, it is
+    refused."""
+    from contactmpc.control.problem import Problem
+
+    scene = scene_for("apple")
+    ref = static_reference(scene, duration=1.0, frames=11)
+    ref.contact_active[:4] = False  # first expected contact at 0.8 s of control time
+    ref.contact_active[9:] = False  # the last at 1.8 s
+    problem = Problem.build(scene, ref, PCASplineSpace(0.2), TrackingCost(), 0.2, 12)
+    args = dict(num_samples=4, horizon=0.2, nthread=1, acquire_samples=9, acquire_until=0.1)
+    on, off = PredictiveSampling(**args, acquire_error=(0.02, 0.3)), PredictiveSampling(**args)
+    m = scene.planner_model
+    state = np.zeros(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    state[1 : 1 + m.nq] = m.qpos0
+    at_rest = problem.track.object_qpos[0]
+    c = scene.task.layout.free_columns[0]
+    slipped = at_rest.copy()
+    slipped[c + 2] -= 0.03  # 3 cm off the reference's object
+    turned = at_rest.copy()
+    turned[c + 3 : c + 7] = [np.cos(0.25), np.sin(0.25), 0.0, 0.0]  # turned 0.5 rad about x
+
+    def at(qo):
+        state[1 + scene.index.object_qpos] = qo
+        return state.copy()
+
+    for planner in (on, off):
+        planner.bind(problem)
+    # (control time, the object, samples on): in the window, off after it, back, turned, past the span
+    cases = ((0.85, at_rest, 9), (1.2, slipped, 9), (1.4, at_rest, 4), (1.6, turned, 9), (1.9, slipped, 4))
+    for k, (t, qo, want_on) in enumerate(cases):
+        got_on = on.plan(t, at(qo), np.random.default_rng(k))
+        got_off = off.plan(t, at(qo), np.random.default_rng(k))
+        assert (got_on.samples, got_off.samples) == (want_on, 9 if t < 0.9 else 4), t
+    assert on.error_plans == 2 and off.error_plans == 0
+    on.bind(problem)
+    assert on.error_plans == 0  # counted per trial
+    for planner in (on, off):
+        planner.close()
+    with pytest.raises(ConfigError, match="acquire_error.*acquire_samples"):
+        PredictiveSampling(acquire_error=(0.02, 0.3))
+    with pytest.raises(ConfigError, match="acquire_error must be"):
+        PredictiveSampling(acquire_samples=9, acquire_error=(0.02, 0.0))
+
+
 def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_path, late_contact_reference):
     """pacing=hold on a reference whose object rises while the tiny planner cannot lift it: the reference's
     clock falls behind only after the first expected contact, by at most the budget, the trial runs the

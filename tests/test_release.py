@@ -172,6 +172,7 @@ def _trial_and_series(release: float, knocked: bool):
             switches_back=False,
             latency_per_plan=False,
             pace_retry=None,
+            acquire_error=None,
         ),
     )
     return series, trial
@@ -195,6 +196,7 @@ def test_summarize_records_the_end_of_the_trial():
     assert rec["object_position_error_after_mean"] == pytest.approx(0.0)
     assert "switch_time" not in rec  # only with planner.switch_timestep
     assert "retry_times" not in rec  # only with planner.pace_retry
+    assert "error_plans" not in rec  # only with planner.acquire_error
     trial.planner = SimpleNamespace(
         switch_timestep=0.005,
         switched_at=None,
@@ -202,10 +204,13 @@ def test_summarize_records_the_end_of_the_trial():
         latency_per_plan=False,
         pace_retry=1.5,
         retried_at=[],
+        acquire_error=(0.03, 0.35),
+        error_plans=7,
     )
     rec = summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)
     assert rec["switch_time"] is None and "switch_back_time" not in rec  # it never switched
     assert rec["retry_times"] == []  # it never tried the grasp again
+    assert rec["error_plans"] == 7
     trial.planner.retried_at = [16.2]
     assert summarize(series, trial, wall=1.0, gap=0.3, min_expected=6, hold=HOLD)["retry_times"] == [16.2]
     trial.planner.switched_at = 1.25

@@ -202,6 +202,8 @@ def summarize(
             switch["switch_back_time"] = trial.planner.switched_back_at
     if trial.planner.pace_retry is not None:  # (pace_retry) when the grasp was tried again
         switch["retry_times"] = list(trial.planner.retried_at)
+    if trial.planner.acquire_error is not None:  # (acquire_error) plans given the grasp's samples for it
+        switch["error_plans"] = int(trial.planner.error_plans)
     per_plan = {}
     if trial.planner.latency_per_plan:  # each plan its own latency: which ones, and how many of each
         dt = trial.scene.plant_model.opt.timestep

@@ -144,6 +144,13 @@ class Planner:
             ``acquire_horizon``) after the window too (not the paper's): a lift that waits for the grasp
             once the window is over keeps the grasp's samples while it waits. No plan draws more than
             ``acquire_samples``; a latency model already prices every plan at the dearer phase's.
+        acquire_error: ``(position m, rotation rad)``: with ``acquire_samples``, a plan made between the
+            reference's first and last expected contact from a state whose free object is more than
+            either from where the reference has it draws ``acquire_samples`` (and plans over
+            ``acquire_horizon``) after the window too (not the paper's): a carried object that slips or
+            turns in the grasp is planned with the grasp's samples until it is back. ``None`` (the
+            default): never. No plan draws more than ``acquire_samples``; a latency model already prices
+            every plan at the dearer phase's. No effect on an object without a free body.
         acquire_horizon: the horizon (s) of the plans in that window, the grasp's (not the paper's): a
             plan there rolls out and scores this much of the reference, so its samples cost
             ``acquire_horizon / horizon`` of a full plan's; ``None`` (the paper): ``horizon`` throughout. A
@@ -323,6 +330,7 @@ class Planner:
         acquire_until: float = 2.0,
         acquire_grasp: Annotated[int, Ge(0)] = 0,
         acquire_waiting: bool = False,
+        acquire_error: tuple[float, float] | None = None,
         acquire_horizon: Annotated[float, Gt(0)] | None = None,
         step_budget: Annotated[int, Ge(1)] | None = None,
         approach_reset: Annotated[float, Ge(0)] | None = None,
@@ -460,6 +468,18 @@ class Planner:
                 "planner.acquire_samples and planner.pace_lag"
             )
         self.acquire_waiting = bool(acquire_waiting)
+        if acquire_error is not None:
+            if acquire_samples is None:
+                raise ConfigError(
+                    "planner.acquire_error draws the grasp's samples where the object is off the reference: "
+                    "set planner.acquire_samples"
+                )
+            if len(acquire_error) != 2 or min(float(v) for v in acquire_error) <= 0:
+                raise ConfigError(
+                    f"planner.acquire_error must be (position m, rotation rad), both > 0; got {acquire_error}"
+                )
+        self.acquire_error = None if acquire_error is None else tuple(float(v) for v in acquire_error)
+        self.error_plans = 0  # (acquire_error) the plans that drew acquire_samples for the object's error
         self.acquire_horizon = None if acquire_horizon is None else float(acquire_horizon)
         self._horizon_now = self.horizon  # the horizon of the plan being made (horizon_at)
         self.step_budget = None if step_budget is None else int(step_budget)
@@ -552,6 +572,7 @@ class Planner:
         self._clock = (0.0, 0.0, 1.0, np.inf)  # a paced reference's clock starts with control time
         self._paced_release, self._grasp_behind = False, 0.0
         self._lost_since, self._retry_spent, self.retried_at = None, 0.0, []
+        self.error_plans = 0
         self._carry, self._carry_at, self._carry_since = np.zeros(6), None, None
         self._held = False
         self._path = None
@@ -1101,6 +1122,10 @@ class Planner:
             self.touch(s, state)
         self.phase(s, prediction)
         grasp = self.acquire_waiting and self.waiting(takes_effect)  # (the reference waits for the grasp)
+        off = self.acquire_error is not None and not grasp and not self.acquiring(s)
+        if off and self.off_reference(s, state):  # (acquire_error) the object slipped or turned
+            grasp = True
+            self.error_plans += 1
         self._at_horizon(self.horizon_at(s, grasp))
         self._plan_samples = self.samples_at(s, grasp)
         if self.reuse and (self.reuse_fingers or not self.reuse_alone):
@@ -1145,6 +1170,21 @@ class Planner:
             expected = layout.interpolate(self.object_qpos(path[k]), self.object_qpos(path[k + 1]), u - k)
         error = layout.error(self.object_qpos(state), expected)
         return float(error.position), float(error.rotation)
+
+    def off_reference(self, s: float, state: np.ndarray) -> bool:
+        """(``acquire_error``) Whether, at reference time ``s`` between the reference's first and last
+        expected contact, the free object of ``state`` is more than ``acquire_error``'s position or
+        rotation from where the reference has it; False for an object without a free body."""
+        problem = self.problem
+        first, last = problem.first_contact, problem.last_contact
+        if first is None or s < first - 1e-9 or (last is not None and s >= last - 1e-9):
+            return False
+        layout, track = problem.scene.task.layout, problem.track
+        if not len(layout.free_columns):
+            return False
+        error = layout.error(self.object_qpos(state), track.object_qpos[track.index(s)])
+        position, rotation = self.acquire_error
+        return float(error.position) > position or float(error.rotation) > rotation
 
     def samples_at(self, t: float, waiting: bool = False) -> int:
         """The samples a plan at control time ``t`` draws: ``acquire_samples`` until ``acquire_until``
