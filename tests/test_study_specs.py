@@ -1716,6 +1716,38 @@ def test_the_method_study_reads_when_a_trial_tried_its_grasp_again_and_where_the
     assert spec.grasp_retries(run / "trial.json") is None
 
 
+def test_the_method_study_sets_each_error_effort_trial_beside_the_same_config_without_it(
+    tmp_path, monkeypatch
+) -> None:
+    """error_effort: per effort=acquire_error lever trial, its plans given the grasp's samples (the record's
+    error_plans of num_plans), its outcome, and the outcome of the lever's overrides less effort= on that
+    seed (— where none ran), with both CPU-s; nothing without such a lever."""
+    import json
+
+    import pandas as pd
+
+    spec = Study("method").spec
+    on = "pacing=lift_retry variant=grasp_held_expected_paced"
+    mine = f"effort=acquire_error {on}"
+    rows = []
+    for lever, seed, clean, done, cpu in ((on, 3, False, False, 300.0), (mine, 3, True, True, 420.0),
+                                          (mine, 4, False, True, 410.0)):  # fmt: skip
+        run = tmp_path / f"{lever.replace(' ', ',')},seed={seed}"
+        run.mkdir()
+        (run / "trial.json").write_text(json.dumps({"error_plans": 12, "num_plans": 366}))
+        rows.append(dict(lever=lever, task="stapler", seed=seed, finished_cleanly=clean, completed=done,
+                         cpu_seconds=cpu, record_path=str(run / "trial.json"), on="m"))  # fmt: skip
+    monkeypatch.setattr(spec, "lever_frame", lambda study: pd.DataFrame(rows))
+    monkeypatch.setattr(spec, "finer_levers", lambda *a: "")
+    monkeypatch.setattr(spec, "with_heldout", lambda study, chosen: pd.DataFrame())
+    text = spec.error_effort(None, None)
+    assert f"| `{mine}` | stapler | 3 | 12 of 366 | clean | `{on}`: not completed | 420 / 300 |" in text
+    assert f"| `{mine}` | stapler | 4 | 12 of 366 | completed | `{on}`: — | 410 |" in text
+    assert "2 of 2 completed, 1 of 2 finished cleanly" in text
+    monkeypatch.setattr(spec, "lever_frame", lambda study: pd.DataFrame(rows[:1]))
+    assert spec.error_effort(None, None) == ""
+
+
 def test_the_method_study_splits_a_paced_trials_waits_into_the_grasps_and_the_releases(tmp_path) -> None:
     """grasp_waits: the reference's waits before the release's window (pace_window from the last expected
     contact, read from the record): how long, when the first began after the first expected contact, the
