@@ -1185,6 +1185,10 @@ LEVER_TEXT = {
     "lifted it on 16 of 20 seeds against the method's 12 (the method_screen study)",
     "planner.carry_hold=1.0": "the carry's wait until the grasp has held (`carry=held`'s 1 s), here on top "
     "of `carry=pose`",
+    "planner.carry_turn=1.0": "the carry turns the wrist too (`planner.carry_turn`, 1/s; `carry=held`'s 0): "
+    "once the grasp has held, each plan also turns the wrist's committed hinge angles toward the rotation "
+    "that takes the carried object's orientation to the reference's, through the wrist's rotational "
+    "Jacobian, the object kept in place, at most 0.5 rad in all (`carry=pose`'s turn on `carry=held`)",
     "cost.surface_weight=1.0": "the surface term on top of the clearance term (`cost.surface_weight`; the "
     "method's 0): each link whose contact the reference expects is pulled onto the object wherever it "
     "touches it, read from the clearance term's distance sensors, so the palm and the proximal links close "
