@@ -1006,7 +1006,8 @@ def test_a_paced_trial_waits_for_the_object_and_off_is_the_trial_of_before(tmp_p
 def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_files, scene_for):
     """pacing=release_turn on the doorknob, whose object has no free body to wait for: the reference never
     waits and the trial runs no longer: pacing=none's trial bit for bit (its log adds the reference's time,
-    the control time's); so is pacing=lift with effort=acquire_waiting effort=acquire's."""
+    the control time's); so is pacing=lift with effort=acquire_waiting effort=acquire's, and pacing=lift_retry
+    with effort=acquire_error (nothing tried again, no plan given more samples)."""
     assert not scene_for("doorknob").task.layout.free_columns
     overrides = ["task=doorknob", f"task.reference_path={reference_files['doorknob']}", *TINY]
     overrides += ["job.progress=false"]
@@ -1021,6 +1022,11 @@ def test_pacing_an_object_on_joints_is_the_unpaced_trial(tmp_path, reference_fil
     waiting = run_job(overrides + ["pacing=lift", "effort=acquire_waiting", few], tmp_path / "waiting")
     assert json.loads(waiting.read_text())["config"]["planner"]["acquire_waiting"] is True
     assert_unpaced(base, waiting)
+    retry = run_job(overrides + ["pacing=lift_retry", "effort=acquire_error", few], tmp_path / "retry")
+    record = json.loads(retry.read_text())
+    assert record["retry_times"] == [] and record["error_plans"] == 0
+    assert record["simulated_seconds"] == off["simulated_seconds"]  # (no retry budget: nothing to retry)
+    assert_unpaced(base, retry)
 
 
 def test_a_paced_release_waits_before_the_last_contact_only(tmp_path, scene_for):
