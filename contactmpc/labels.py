@@ -58,6 +58,7 @@ NAMED_VARIANTS: dict[str, str] = {
     "grasp_held_expected": "full",
     "grasp_held_expected_long": "full",
     "grasp_held_expected_paced": "full",
+    "grasp_held_expected_adaptive": "full",
 }
 """Variants that only select groups (``conf/variant/<name>.yaml``'s defaults), by the variant they
 build on: the method is that variant with the groups the record names."""
@@ -146,6 +147,14 @@ NAMED_METHODS["grasp_held_expected_paced"] = {
     **NAMED_METHODS["grasp_held_expected"],
     "variant": "grasp_held_expected_paced",
     "pacing": "lift",
+}
+
+# grasp_held_expected_paced trying a lost grasp again, with the grasp's samples where the object is off
+NAMED_METHODS["grasp_held_expected_adaptive"] = {
+    **NAMED_METHODS["grasp_held_expected_paced"],
+    "variant": "grasp_held_expected_adaptive",
+    "pacing": "lift_retry",
+    "effort": "acquire_error",
 }
 
 _LABELS: dict[str, dict[str, str]] = {**OLD_VARIANTS, **NAMED_METHODS}

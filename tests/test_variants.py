@@ -129,8 +129,9 @@ def test_every_old_variant_has_its_overrides_and_the_variants_are_few():
     # few: the paper's three, replay, robust, and the named combinations of groups that records carry
     # (wrist, wrist_clearance) or that are the project's methods (grasp_release and those that add groups
     # to it: grasp_release_ahead, grasp_release_ahead_acquire, grasp_held_eased, grasp_held_eased_refined,
-    # grasp_held_retract, grasp_held_expected, grasp_held_expected_long, grasp_held_expected_paced)
-    assert len(VARIANTS) <= 16
+    # grasp_held_retract, grasp_held_expected, grasp_held_expected_long, grasp_held_expected_paced,
+    # grasp_held_expected_adaptive)
+    assert len(VARIANTS) <= 17
 
 
 @pytest.mark.parametrize("old", sorted(EXPECTED))
@@ -454,6 +455,19 @@ def test_pacing_lift_is_pacing_hold_at_3_5_cm_and_names_the_paced_method():
     assert paced == lift | {"planner": planner} and paced_choices == lift_choices
     for variant in ("grasp_held_expected", "grasp_held_expected_paced"):  # the lever's trials name the method
         assert labels.method_name({"variant": variant, **lift_choices}) == "grasp_held_expected_paced"
+
+
+def test_the_adaptive_method_is_the_paced_one_with_its_retry_and_error_effort_and_names_them():
+    """variant=grasp_held_expected_adaptive composes exactly grasp_held_expected_paced with pacing=lift_retry
+    and effort=acquire_error (the method study's lever trials' overrides), and names those trials."""
+    lever, lever_choices = _paper_apple(
+        "variant=grasp_held_expected_paced", "pacing=lift_retry", "effort=acquire_error"
+    )
+    named, named_choices = _paper_apple("variant=grasp_held_expected_adaptive")
+    assert named == lever and named_choices == lever_choices
+    assert named["planner"]["acquire_error"] == [0.03, 0.35] and named["planner"]["pace_retry"] == 1.5
+    for variant in ("grasp_held_expected_paced", "grasp_held_expected_adaptive"):
+        assert labels.method_name({"variant": variant, **lever_choices}) == "grasp_held_expected_adaptive"
 
 
 def test_place_is_a_group_that_samples_the_wrist_before_the_hand_lets_go():

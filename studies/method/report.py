@@ -78,6 +78,7 @@ ORDER = (
     "grasp_held_eased+rollout=fine_budget",
     "grasp_held_eased+rollout=fine",
     "grasp_held_eased+retarget=wrist",
+    "grasp_held_expected_adaptive",
     "grasp_held_expected_long",
     "grasp_held_expected_paced",
     "grasp_held_expected",
@@ -240,7 +241,14 @@ def _lever_on_every_object(lever: str) -> dict[str, tuple[str, str]]:
 #: ``grasp_held_expected_paced`` is ``grasp_held_expected`` with ``pacing=lift`` (``pacing=hold`` at 3.5 cm):
 #: on a free object that lever's trials; on an object on joints a paced trial is the unpaced one
 #: (``tests/test_method_levers.py`` checks it bit for bit), so there ``grasp_held_expected``'s.
+#: ``grasp_held_expected_adaptive`` is ``grasp_held_expected_paced`` with ``pacing=lift_retry`` and
+#: ``effort=acquire_error``: on a free object that lever's trials; on an object on joints neither acts (the
+#: same test), so there too ``grasp_held_expected``'s.
 EQUIVALENT = {
+    "grasp_held_expected_adaptive": {
+        "free": ("levers", "effort=acquire_error pacing=lift_retry variant=grasp_held_expected_paced"),
+        "joints": ("levers", "reuse=elites_expected variant=grasp_held_retract"),
+    },
     "grasp_held_expected_long": _lever_on_every_object("effort=acquire_long variant=grasp_held_expected"),
     "grasp_held_expected_paced": {
         "free": ("levers", "pacing=hold planner.pace_lag=0.035 variant=grasp_held_expected"),

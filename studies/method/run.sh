@@ -3,7 +3,7 @@
 # rollout=fine_on_error (= grasp_held_eased_refined), with rollout=fine_until_held, with place=wrist, with
 # rollout=fine_grasp_on_error, with rollout=fine_from_contact, with rollout=fine_after_grasp, with
 # rollout=fine_budget, with rollout=fine, then with retarget=wrist (candidates on top of it),
-# grasp_held_expected_long, grasp_held_expected_paced, grasp_held_expected, grasp_held_retract,
+# grasp_held_expected_adaptive, grasp_held_expected_long, grasp_held_expected_paced, grasp_held_expected, grasp_held_retract,
 # grasp_held_eased, grasp_release_ahead with effort=acquire, grasp_release_ahead, then grasp_release, on the
 # four paper tasks, seeds 0-9, then the paper's full method at the same point on the same seeds
 # (experiment=method); VARIANTS="full" runs some of them. One seed at a time (seeds vary
@@ -15,7 +15,7 @@ set -u
 cd "$(dirname "$0")/../.."
 PY=${PY:-python}
 OUT=${OUT:-studies/method/records}
-for method in ${VARIANTS:-grasp_held_eased+shaping=clearance_grasp grasp_held_eased+reuse=elites grasp_held_eased+rollout=fine_on_error grasp_held_eased+rollout=fine_until_held grasp_held_eased+place=wrist grasp_held_eased+rollout=fine_grasp_on_error grasp_held_eased+rollout=fine_from_contact grasp_held_eased+rollout=fine_after_grasp grasp_held_eased+rollout=fine_budget grasp_held_eased+rollout=fine grasp_held_eased+retarget=wrist grasp_held_expected_long grasp_held_expected_paced grasp_held_expected grasp_held_retract grasp_held_eased grasp_release_ahead+effort=acquire grasp_release_ahead grasp_release full}; do
+for method in ${VARIANTS:-grasp_held_eased+shaping=clearance_grasp grasp_held_eased+reuse=elites grasp_held_eased+rollout=fine_on_error grasp_held_eased+rollout=fine_until_held grasp_held_eased+place=wrist grasp_held_eased+rollout=fine_grasp_on_error grasp_held_eased+rollout=fine_from_contact grasp_held_eased+rollout=fine_after_grasp grasp_held_eased+rollout=fine_budget grasp_held_eased+rollout=fine grasp_held_eased+retarget=wrist grasp_held_expected_adaptive grasp_held_expected_long grasp_held_expected_paced grasp_held_expected grasp_held_retract grasp_held_eased grasp_release_ahead+effort=acquire grasp_release_ahead grasp_release full}; do
   # a method is a variant, then +group=member for each group on top (grasp_release_ahead+effort=acquire)
   groups=""
   if [[ $method == *+* ]]; then groups=${method#*+}; groups=${groups//+/ }; fi
