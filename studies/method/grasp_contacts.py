@@ -20,7 +20,7 @@ from release_replay import series_rows  # this folder's script
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository's root: analysis/
 from analysis.timeline import link_names  # noqa: E402
-from contactmpc.labels import method_name
+from contactmpc.labels import method_labels, method_name
 
 HERE = Path(__file__).resolve().parent
 CSV = HERE / "figures" / "grasp_contacts.csv"
@@ -32,13 +32,14 @@ THUMB, INDEX = "th_", "ff_"  # the Allegro hand's link name prefixes
 
 def option(run: Path, record: dict) -> str:
     """The trial's method, with a lever's overrides (its run folder's name less the experiment, seed, task
-    and variant) after a ``+``."""
+    and variant, and the groups the method's name already sets so) after a ``+``."""
     name = method_name(record) or str(record.get("variant"))
     if run.parent.name != "levers":
         return name
     keep = ("experiment", "seed", "task", "variant")
     extra = [p for p in run.name.split(",") if p.split("=", 1)[0] not in keep]
-    return name + "".join(f"+{p}" for p in extra if f"+{p}" not in name)
+    own = method_labels({"variant": name})  # (a group the named method already sets to that member)
+    return name + "".join(f"+{p}" for p in extra if own.get(p.split("=", 1)[0]) != p.split("=", 1)[1])
 
 
 def row(run: Path) -> dict | None:
