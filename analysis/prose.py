@@ -103,6 +103,11 @@ def unchallenged(df):
     return df[df["challenge"].isna()] if "challenge" in df else df
 
 
+#: What a glance row's configuration says where it is the one method a study finds best on all its tasks
+#: (``analysis.study.glance_table`` shows it beside each task's best and default).
+ALL_TASKS = "(one method for every task)"
+
+
 def glance_row(task: str, configuration: str, trials) -> dict:
     """A row of the README's "results at a glance" (``analysis.study.glance_table``) for ``trials``, a
     frame with boolean ``completed`` and ``finished_cleanly`` and the CPU seconds ``compute``."""

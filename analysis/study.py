@@ -38,6 +38,7 @@ from types import ModuleType
 import pandas as pd
 
 from analysis.aggregate import load_records
+from analysis.prose import ALL_TASKS
 from analysis.summarize import Fmt
 from contactmpc.labels import GROUPS, method_name
 from contactmpc.records import RECORD_NAME
@@ -315,9 +316,12 @@ def glance_table(root: Path = STUDIES) -> str:
     highest lower bound of the 95 % Wilson interval of its completion rate, so that 9/10 beats 1/1, then
     the same of finishing cleanly, then the fewest median CPU-s; ties keep the study first by name),
     tasks in the order they first appear; below it the task's default (a row whose configuration says
-    ``(the default)``) where the default is not the best, so the table shows what a user gets by default."""
+    ``(the default)``) where the default is not the best, so the table shows what a user gets by default,
+    and the row of the one method that does every task best (whose configuration says :data:`ALL_TASKS`)
+    where it is neither."""
     best: dict[str, tuple[tuple, dict]] = {}
     default: dict[str, tuple[tuple, dict]] = {}
+    every: dict[str, dict] = {}
     for name in names(root):
         for row in Study(name, root).glance():
             row = {**row, "study": row.get("study") or f"[{name}](studies/{name}/README.md)"}
@@ -333,12 +337,15 @@ def glance_table(root: Path = STUDIES) -> str:
                 task not in default or key > default[task][0]
             ):
                 default[task] = (key, row)
+            if ALL_TASKS in str(row.get("configuration")):
+                every.setdefault(task, row)
     lines = [
         "| " + " | ".join(GLANCE_COLUMNS) + " |",
         "|---|---|--:|--:|--:|---|",
     ]
     for task, (_, row) in best.items():
         rows = [row] + ([default[task][1]] if task in default and default[task][1] is not row else [])
+        rows += [every[task]] if task in every and all(every[task] is not r for r in rows) else []
         lines += ["| " + " | ".join(str(r.get(c, "—")) for c in GLANCE_COLUMNS) + " |" for r in rows]
     return "\n".join(lines) + "\n"
 

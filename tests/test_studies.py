@@ -172,6 +172,25 @@ def test_glance_shows_the_default_below_the_best_where_it_is_another(tmp_path) -
     assert [line.split(" | ")[1] for line in lines] == ["y", "x (the default)", "z (the default)"]
 
 
+def test_glance_shows_the_one_method_for_every_task_where_it_is_neither_best_nor_default(tmp_path) -> None:
+    """A row whose configuration says ALL_TASKS follows the best and the default rows of its task, and is
+    not repeated where it is one of them."""
+    every = study_mod.ALL_TASKS
+    rows = [("apple", "x (the default)", "8/10"), ("apple", "y", "10/10"), ("apple", f"z {every}", "9/10"),
+            ("bottle", f"z {every}", "10/10"), ("bottle", "x (the default)", "9/10")]  # fmt: skip
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "report.py").write_text(
+        'TITLE = "t"\nEXPERIMENTS = []\ndef report(study):\n  return ""\n'
+        "def glance(study):\n  return ["
+        + ", ".join(f'{{"task": "{t}", "configuration": "{c}", "completed": "{k}"}}' for t, c, k in rows)
+        + "]\n"
+    )
+    lines = glance_table(tmp_path).splitlines()[2:]
+    assert [line.split(" | ")[1] for line in lines] == [
+        "y", "x (the default)", f"z {every}", f"z {every}", "x (the default)"
+    ]
+
+
 def test_old_labels_go_through_the_projects_label_map() -> None:
     """Records' variants are renamed by ``contactmpc.labels.method_name``: an old record's variant and a
     new record's groups of the same method get one name, and a name read again stays the same."""

@@ -1748,6 +1748,24 @@ def test_the_method_study_sets_each_error_effort_trial_beside_the_same_config_wi
     assert spec.error_effort(None, None) == ""
 
 
+def test_the_method_study_names_the_one_method_whose_worst_task_is_best(monkeypatch) -> None:
+    """every_task: of the methods with all ten sweep seeds on every task, the one whose worst task
+    completes most (the Wilson lower bound), then finishes cleanly most; one without a task's seeds is not
+    ranked; None where no method has them all."""
+    import pandas as pd
+
+    spec = Study("method").spec
+    monkeypatch.setattr(spec, "plan", lambda: (["apple", "bottle"], list(range(10))))
+    done = {("a", "apple"): 10, ("a", "bottle"): 8, ("b", "apple"): 9, ("b", "bottle"): 9, ("c", "apple"): 10}
+    rows = [dict(variant=m, task=t, seed=s, completed=s < k, finished_cleanly=s < k - 1)
+            for (m, t), k in done.items() for s in range(10)]  # fmt: skip
+    ok = pd.DataFrame(rows)
+    assert spec.every_task(ok, ["a", "b", "c"]) == "b"
+    assert spec.every_task(ok, ["a", "c"]) == "a"
+    assert spec.every_task(ok, ["c"]) is None
+    assert spec.every_task(ok[ok["seed"] < 9], ["a", "b"]) is None  # nine seeds of ten
+
+
 def test_the_method_study_splits_a_paced_trials_waits_into_the_grasps_and_the_releases(tmp_path) -> None:
     """grasp_waits: the reference's waits before the release's window (pace_window from the last expected
     contact, read from the record): how long, when the first began after the first expected contact, the
