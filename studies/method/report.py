@@ -2051,6 +2051,11 @@ def _paced_trials(found, measure):
             yield r, waits, clean.get((bases[r["lever"]], r["task"], r["seed"]))
 
 
+def _outcome(r) -> str:
+    """How a trial (a record's row) ended: ``clean``, ``completed`` or ``not completed``."""
+    return "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
+
+
 def _ended(r, base: bool | None) -> str:
     """Two table cells: how a trial (a record's row) ended (``clean``, ``completed``, ``not completed`` or
     its status), and whether the method's trial on that seed finished cleanly (``base``)."""
@@ -2183,13 +2188,7 @@ def error_effort(study, chosen: pd.DataFrame) -> str:
         cpu = f"{float(r['cpu_seconds']):.0f}"
         if other is not None:
             cpu += f" / {float(other['cpu_seconds']):.0f}"
-        mine = "clean" if r["finished_cleanly"] else "completed" if r["completed"] else "not completed"
-        theirs = (
-            "—" if other is None
-            else "clean" if other["finished_cleanly"]
-            else "completed" if other["completed"]
-            else "not completed"
-        )  # fmt: skip
+        mine, theirs = _outcome(r), "—" if other is None else _outcome(other)
         cells = (f"`{r['lever']}`", r["task"], r["seed"], share, mine, f"`{without}`: {theirs}", cpu)
         rows.append("| " + " | ".join(map(str, cells)) + " |")
         got = per.setdefault((r["lever"], r["task"]), [0, 0, 0, 0, 0])
@@ -3156,12 +3155,7 @@ def finer_levers(
         out = []
         for s in seeds_:
             r = by_seed.loc[s] if s in by_seed.index else None
-            key = (
-                "none" if r is None
-                else "clean" if r["finished_cleanly"]
-                else "completed" if r["completed"]
-                else "failed"
-            )  # fmt: skip
+            key = "none" if r is None else _outcome(r).replace("not completed", "failed")
             out.append(OUTCOME_MARKS[key])
         ran = by_seed.loc[[s for s in seeds_ if s in by_seed.index]]
         return "".join(out), len(ran), int(ran["completed"].sum()), int(ran["finished_cleanly"].sum())
