@@ -262,6 +262,20 @@ EQUIVALENT = {
 }
 
 
+#: Why a method's stand-ins are its trials where :func:`equivalents_note`'s general reading does not say it
+#: (``{free}``, ``{joints}``: the levers that stand in on a free object and on one on joints).
+EQUIVALENT_WHY = {
+    "grasp_held_expected_paced": "on a free object its config is the lever `{free}`'s "
+    "(`tests/test_variants.py` checks the two compose the same), and on an object on joints the pacing never "
+    "acts (`tests/test_method_levers.py` checks the trial bit for bit), so there it is "
+    "`grasp_held_expected`'s, the lever `{joints}`'s",
+    "grasp_held_expected_adaptive": "on a free object its config is the lever `{free}`'s "
+    "(`tests/test_variants.py` checks the two compose the same), and on an object on joints neither the "
+    "pacing, the retry nor the error's samples act (`tests/test_method_levers.py` checks the trial bit for "
+    "bit), so there it is `grasp_held_expected`'s, the lever `{joints}`'s",
+}
+
+
 def own_trials(df: pd.DataFrame) -> pd.DataFrame:
     """:data:`METHOD`'s trials in ``df`` that it ran itself (no stand-in: :func:`with_equivalents`)."""
     if not len(df):
@@ -363,8 +377,12 @@ def equivalents_note(df: pd.DataFrame) -> str:
         agree = sum(c[4] for c in done)
         seen = ", ".join(f"{task} {seed}" for _, task, seed, _, _ in done)
         free, joints = EQUIVALENT[method]["free"][1], EQUIVALENT[method]["joints"][1]
+        same = f"its config is the lever `{free}`'s (`tests/test_variants.py` checks the two compose "
+        same += "the same)"
         why = (
-            f"its config is the lever `{free}`'s (`tests/test_variants.py` checks the two compose the same)"
+            EQUIVALENT_WHY[method].format(free=free, joints=joints)
+            if method in EQUIVALENT_WHY
+            else same
             if free == joints
             else f"on a free object its release is `{free}`'s (`sampler.release.articulated_only`: the hold "
             "and the retraction act only on an object on joints; `tests/test_release.py` checks the planner "
