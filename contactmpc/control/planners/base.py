@@ -890,7 +890,7 @@ class Planner:
         behind = t - at - self._retry_spent  # (the rewinds' time is their own budget's)
         grasp = False  # (pace_grasp) the grasp's rule, before the window
         if self.pace_window is None:
-            wait = first is not None and first - 1e-9 <= s and (last is None or s < last - 1e-9)
+            wait = self.in_span(s)
         else:
             start, end = self.pace_window
             wait = last is not None and last + start - 1e-9 <= s < last + end - 1e-9
@@ -1171,15 +1171,19 @@ class Planner:
         error = layout.error(self.object_qpos(state), expected)
         return float(error.position), float(error.rotation)
 
+    def in_span(self, s: float) -> bool:
+        """Whether reference time ``s`` lies in the reference's contact span: from its first expected
+        contact up to (not at) its last; never without a first."""
+        first, last = self.problem.first_contact, self.problem.last_contact
+        return first is not None and first - 1e-9 <= s and (last is None or s < last - 1e-9)
+
     def off_reference(self, s: float, state: np.ndarray) -> bool:
         """(``acquire_error``) Whether, at reference time ``s`` between the reference's first and last
         expected contact, the free object of ``state`` is more than ``acquire_error``'s position or
         rotation from where the reference has it; False for an object without a free body."""
-        problem = self.problem
-        first, last = problem.first_contact, problem.last_contact
-        if first is None or s < first - 1e-9 or (last is not None and s >= last - 1e-9):
+        if not self.in_span(s):
             return False
-        layout, track = problem.scene.task.layout, problem.track
+        layout, track = self.problem.scene.task.layout, self.problem.track
         if not len(layout.free_columns):
             return False
         error = layout.error(self.object_qpos(state), track.object_qpos[track.index(s)])
