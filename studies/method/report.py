@@ -2231,7 +2231,7 @@ def error_effort(study, chosen: pd.DataFrame) -> str:
         "plans did, how it ended, and how the trial of the same config without the lever ended on that seed. "
         + "; ".join(said)
         + ". The thresholds were set from the time series of the stapler's `pacing=lift_retry` trials on "
-        "seeds 0-19 (its failures turn the stapler 35-85° in the grasp while it is carried), so for it "
+        "seeds 0-19 (its failures turn the stapler in the grasp while it is carried), so for it "
         "those seeds are not held out.\n\n| "
         + " | ".join(cols) + " |\n|" + "---|" * 3 + "--:|---|---|--:|\n"
         + "\n".join(rows)
