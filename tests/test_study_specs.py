@@ -65,6 +65,9 @@ def test_the_method_study_reads_its_groups_and_plan_from_conf_and_judges_the_tar
     assert spec.variants() == list(spec.ORDER)
     after = spec.ORDER[spec.ORDER.index(spec.METHOD) + 1 :]
     assert after == (
+        "grasp_held_expected_long",
+        "grasp_held_expected_paced",
+        "grasp_held_expected",
         "grasp_held_retract",
         "grasp_held_eased",
         "grasp_release_ahead_acquire",

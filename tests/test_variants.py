@@ -290,14 +290,15 @@ def test_the_release_node_has_a_schema():
 @pytest.mark.parametrize("task", ["paper_apple", "paper_bottle", "paper_doorknob", "paper_stapler"])
 def test_a_paper_task_chooses_the_project_s_method_and_the_command_line_wins(task):
     choices = compose_config([f"task={task}"], return_hydra_config=True).hydra.runtime.choices
-    assert (choices.variant, choices.preset) == ("grasp_held_expected", "paper_32samples_calibrated")
+    assert (choices.variant, choices.preset) == ("grasp_held_expected_adaptive", "paper_32samples_calibrated")
     assert (choices.wrist, choices.shaping, choices.release, choices.reuse) == (
         "acquire",
         "clearance",
         "retract_articulated",
         "elites_expected",
     )
-    assert (choices.compensation, choices.effort, choices.carry) == ("predict", "acquire", "held")
+    assert (choices.compensation, choices.effort, choices.carry) == ("predict", "acquire_error", "held")
+    assert choices.pacing == "lift_retry"
     cfg = compose_config([f"task={task}", "variant=full", "preset=paper"], return_hydra_config=True)
     assert (cfg.hydra.runtime.choices.variant, cfg.hydra.runtime.choices.preset) == ("full", "paper")
     assert (cfg.hydra.runtime.choices.shaping, cfg.hydra.runtime.choices.release) == ("none", "none")
@@ -410,11 +411,15 @@ def test_grasp_held_retract_is_the_method_letting_go_of_an_articulation_by_retra
 
 
 def test_grasp_held_expected_is_the_method_keeping_its_runners_up_once_the_reference_expects_a_grasp():
-    """variant=grasp_held_expected, the paper tasks' default, composes grasp_held_retract with
-    reuse=elites_expected: its planner carries 8 runners-up from the reference's 3-finger instant, and
-    nothing else differs; the method study's lever trials of the latter are named by it."""
+    """variant=grasp_held_expected, the default's step without the pacing and the error's samples,
+    composes grasp_held_retract with reuse=elites_expected: its planner carries 8 runners-up from the
+    reference's 3-finger instant, and nothing else differs; the method study's lever trials of the latter
+    are named by it."""
     named, choices = _paper_apple("variant=grasp_held_expected")
-    assert _paper_apple()[0] == named  # the paper tasks' default
+    default, _ = _paper_apple()  # the paper tasks' default: it with the retried grasp and the error's samples
+    adaptive = ("variant=grasp_held_expected", "pacing=lift_retry", "effort=acquire_error")
+    assert default == _paper_apple(*adaptive)[0]
+    assert default != named
     groups, group_choices = _paper_apple("variant=grasp_held_retract", "reuse=elites_expected")
     assert named == groups and choices == group_choices
     retract, _ = _paper_apple("variant=grasp_held_retract")
@@ -465,6 +470,7 @@ def test_the_adaptive_method_is_the_paced_one_with_its_retry_and_error_effort_an
     )
     named, named_choices = _paper_apple("variant=grasp_held_expected_adaptive")
     assert named == lever and named_choices == lever_choices
+    assert _paper_apple() == (named, named_choices)  # the paper tasks' default
     assert named["planner"]["acquire_error"] == [0.03, 0.35] and named["planner"]["pace_retry"] == 1.5
     for variant in ("grasp_held_expected_paced", "grasp_held_expected_adaptive"):
         assert labels.method_name({"variant": variant, **lever_choices}) == "grasp_held_expected_adaptive"

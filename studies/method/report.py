@@ -3210,6 +3210,12 @@ def finer_levers(
 PHYSICS = "model_physics.csv"
 
 
+def physics_method() -> str:
+    """The method whose held-out trials ``studies/method/model_physics.py`` replays (its ``METHOD``)."""
+    m = re.search(r'^METHOD = "([^"]+)"', (HERE / "model_physics.py").read_text(), re.M)
+    return m[1] if m else METHOD
+
+
 def model_physics(rows: pd.DataFrame) -> str:
     """What the replays of :data:`PHYSICS` (``studies/method/model_physics.py``; rows: ``task``, ``seed``,
     ``model``, ``step``, ``lifted``, ``cpu``, ``before``, ``after``) say: per planning model (the method's
@@ -3241,7 +3247,7 @@ def model_physics(rows: pd.DataFrame) -> str:
     names = [t.removeprefix("paper_") for t in tasks]
     out = (
         f"Can the planning model keep its 10 ms step and hold the grasps the plant holds? Each of "
-        f"`{METHOD}`'s held-out trials on the free objects replayed open-loop as above "
+        f"`{physics_method()}`'s held-out trials on the free objects replayed open-loop as above "
         f"(`python studies/method/model_physics.py`: from {before:g} s before its contact span to "
         f"{after:g} s after it, its recorded hand targets), in the plant, in the method's planning model "
         "(10 ms), in that model with one physics option at a time (set on the planning model only; none "

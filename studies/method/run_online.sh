@@ -5,7 +5,7 @@
 # the method completes the task on 2 threads of this CPU, i.e. real time on 2 x that many threads.
 # Run on a quiet machine (the runs measure wall-clock time: stop other jobs while they run), from the
 # repository root, with CONTACTMPC_PAPER_DATA set:
-#   bash studies/method/run_online.sh                  (VARIANTS="grasp_held_eased", the paper tasks' default)
+#   bash studies/method/run_online.sh      (VARIANTS="grasp_held_expected_adaptive", the paper tasks' default)
 # Each run's record goes to outputs/method_online/<run>/ (trial.json + timeseries.npz); its trial.json is kept
 # in studies/method/online/<run>/trial.json. A run whose record exists is skipped (resume=true). Budget: a run
 # takes its trial's control time x slowdown in wall time (39-69 s at slowdown 1). PACED=170 paces the planner
@@ -18,7 +18,7 @@ cd "$(dirname "$0")/../.."
 : "${CONTACTMPC_PAPER_DATA:?set CONTACTMPC_PAPER_DATA to the mjpc/tasks directory of the paper authors}"
 PY=${PY:-python}
 KEEP=studies/method/online
-for method in ${VARIANTS:-grasp_held_eased}; do
+for method in ${VARIANTS:-grasp_held_expected_adaptive}; do
   # a method is a variant, then +group=member for each group on top (grasp_release_ahead+effort=acquire)
   variant=${method%%+*}; groups=""
   if [[ $method == *+* ]]; then groups=${method#*+}; groups=${groups//+/ }; fi
