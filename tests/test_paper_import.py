@@ -479,7 +479,10 @@ def test_real_paper_task_runs_half_a_second(task: str, tmp_path: Path, compose) 
     """Each paper task runs as composed by default (its hand, the method, its preset) to a record."""
     import launch
 
-    cfg = compose([f"task={task}", "duration=0.5", "job.progress=false", f"hydra.run.dir={tmp_path}"])
+    # (the default method's paced reference would run a free object's trial its waits' and rewinds' budgets,
+    # 11 s, longer: zero budgets keep the trial the half second asked for)
+    overrides = ["duration=0.5", "planner.pace_budget=0", "planner.pace_retry_budget=0"]
+    cfg = compose([f"task={task}", *overrides, "job.progress=false", f"hydra.run.dir={tmp_path}"])
     job = launch.build_job(cfg.job)
     import functools
 
