@@ -112,6 +112,11 @@ class OnlineLoop:
             ready. With ``planner.compensate_latency`` the planner predicts its state the larger of this
             and :meth:`expected_latency` ahead. 0: each plan acts as soon as it is ready (MuJoCo MPC's
             loop).
+        latency_by_samples: (not the paper's) with ``planner.compensate_latency``, each plan predicts its
+            state as far ahead as the last plans that drew the samples it is expected to draw took
+            (:meth:`expected_latency` at its state's time), not the last plans whatever they drew: a plan
+            of the grasp's ``acquire_samples``, several times dearer, no longer predicts only as far as
+            the cheap plans before it took. False: the last plans' median, whatever they drew.
     """
 
     @checked
@@ -126,8 +131,10 @@ class OnlineLoop:
         progress: bool = False,
         min_interval: Annotated[float, Ge(0)] = 0.0,
         apply_after: Annotated[float, Ge(0)] = 0.0,
+        latency_by_samples: bool = False,
     ) -> None:
         self.min_interval = float(min_interval)
+        self.latency_by_samples = bool(latency_by_samples)
         self.apply_after = float(apply_after)
         self.trial = trial
         self.slowdown = float(slowdown)
@@ -177,7 +184,7 @@ class OnlineLoop:
                     last, t, state = self._state
                 due = t + self.min_interval
                 start = time.perf_counter()
-                ahead = max(self.apply_after, self.expected_latency())
+                ahead = max(self.apply_after, self.expected_latency(t=t if self.latency_by_samples else None))
                 # the prediction's path runs as far again, for the next plan's check of it, which starts
                 # when this one is done: later than predicted where this plan takes longer than the last ones
                 info = planner.plan(t, state, rng, ahead=ahead, reach=ahead)
@@ -192,13 +199,38 @@ class OnlineLoop:
             self._error = err
             self._stop.set()
 
-    def expected_latency(self, recent: int = 5) -> float:
+    def expected_latency(self, recent: int = 5, t: float | None = None) -> float:
         """The control time the next plan is expected to take (s): the median compute time of the last
         ``recent`` plans, in control seconds (wall / ``slowdown``); 0 before the first. With
-        ``planner.compensate_latency`` the planner plans from its state predicted this far ahead."""
+        ``planner.compensate_latency`` the planner plans from its state predicted this far ahead.
+
+        ``t`` (``latency_by_samples``): the control time of the next plan's state; the median is then of
+        the last ``recent`` plans that drew the samples it is expected to draw (:meth:`expected_samples`),
+        or, where none has yet, the last plans' scaled by the samples (a plan's rollouts cost in
+        proportion to them)."""
         if not self.plans:
             return 0.0
-        return float(np.median([p.ready_wall - p.start_wall for p in self.plans[-recent:]])) / self.slowdown
+        last = self.plans[-recent:]
+        scale = 1.0
+        if t is not None:
+            samples = self.expected_samples(t)
+            same = [p for p in self.plans if p.info.samples == samples][-recent:]
+            if same:
+                last = same
+            else:
+                scale = samples / float(np.median([max(p.info.samples, 1) for p in last]))
+        return scale * float(np.median([p.ready_wall - p.start_wall for p in last])) / self.slowdown
+
+    def expected_samples(self, t: float) -> int:
+        """The samples the plan from the state at control time ``t`` is expected to draw: the planner's at
+        the reference's time there (``acquire_samples`` in the acquire window), or, with
+        ``planner.acquire_error``, the last plan's where it drew more (the object is still off the
+        reference, most likely). Needs a published plan."""
+        planner = self.trial.planner
+        samples = int(planner.samples_at(planner.reference_time(t)))
+        if getattr(planner, "acquire_error", None) is not None:
+            samples = max(samples, int(self.plans[-1].info.samples))
+        return samples
 
     def _acting(self, t: float, current: Published | None) -> Published | None:
         """The plan the plant steps with at control time ``t``: the newest published one, or with
@@ -419,6 +451,7 @@ class OnlineLoop:
             "slowdown": self.slowdown,
             "min_interval": self.min_interval,
             "apply_after": self.apply_after,
+            "latency_by_samples": self.latency_by_samples,
             "real_time_factor_target": 1.0 / self.slowdown,
             "simulated_seconds": sim,
             "wall_seconds": self.wall_seconds,

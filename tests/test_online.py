@@ -103,6 +103,39 @@ def test_the_grasp_plans_are_those_planned_from_1_s_before_to_2_s_after_the_firs
     assert loop._plans_by_samples() == {"128": 10.4, "32": 13.375}
 
 
+def test_latency_by_samples_predicts_a_plan_as_far_ahead_as_plans_of_its_samples_took():
+    """OnlineLoop(latency_by_samples=True): the next plan's expected latency is the median of the last
+    plans that drew the samples it is expected to draw (the grasp's 128 in the acquire window), scaled by
+    the samples where none has yet; without ``t``, the last plans' whatever they drew (the default)."""
+    from types import SimpleNamespace as NS
+
+    loop = OnlineLoop.__new__(OnlineLoop)
+    loop.slowdown = 2.0
+    window = 1.0  # the acquire window: reference time before 1 s
+
+    def samples_at(s):
+        return 128 if s < window else 32
+
+    planner = NS(samples_at=samples_at, reference_time=lambda t: t - 0.5, acquire_error=None)
+    loop.trial = NS(planner=planner)
+
+    def plans(*drawn):  # (samples, wall seconds) of each plan, in order
+        return [NS(start_wall=0.0, ready_wall=w, info=NS(samples=n)) for n, w in drawn]
+
+    loop.plans = plans((32, 0.1), (32, 0.1), (32, 0.1))
+    assert loop.expected_latency() == pytest.approx(0.05)  # wall / slowdown
+    assert loop.expected_latency(t=2.0) == pytest.approx(0.05)  # reference time 1.5: 32 samples
+    assert loop.expected_latency(t=1.0) == pytest.approx(0.2)  # 128: none yet, 4x the 32's
+    loop.plans += plans((128, 0.8), (128, 0.6), (32, 0.1), (32, 0.1), (32, 0.1))
+    assert loop.expected_latency() == pytest.approx(0.05)  # the last five: three of 32
+    assert loop.expected_latency(t=1.0) == pytest.approx(0.35)  # the 128's median, 0.7 s wall
+    # acquire_error: a plan past the window that drew the grasp's samples: the next most likely does too
+    planner.acquire_error = (0.03, 0.35)
+    assert loop.expected_latency(t=2.0) == pytest.approx(0.05)
+    loop.plans += plans((128, 1.0))
+    assert loop.expected_latency(t=2.0) == pytest.approx(0.4)  # 0.6, 0.8, 1.0: median 0.8 s wall
+
+
 class SlowReplay(Replay):
     """A planner that takes 60 ms of wall time and writes its control points in two halves 30 ms apart,
     each plan the reference's own control points + 0.01 x its number: a plant that read

@@ -44,6 +44,7 @@ def run_online(
     max_lag: Annotated[float, Gt(0)] = 0.1,
     min_interval: Annotated[float, Ge(0)] = 0.0,
     apply_after: Annotated[float, Ge(0)] = 0.0,
+    latency_by_samples: bool = False,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -72,6 +73,9 @@ def run_online(
         apply_after: control seconds from the state a plan starts from to the step it acts at, at
             least: a plan ready sooner is held until then (a fixed latency, as a simulated trial's
             ``planner.latency``); 0: each plan acts as soon as it is ready.
+        latency_by_samples: with ``planner.compensate_latency``, predict each plan's state as far ahead
+            as the last plans of the samples it is expected to draw took
+            (:class:`~contactmpc.online.OnlineLoop`); False: the last plans, whatever they drew.
         config: the resolved config, stored in the record.
         labels: names of the config choices for the record.
 
@@ -97,6 +101,7 @@ def run_online(
                 progress=inputs.progress,
                 min_interval=min_interval,
                 apply_after=apply_after,
+                latency_by_samples=latency_by_samples,
             )
             loop0 = time.perf_counter()
             try:

@@ -832,17 +832,20 @@ def usual_cpu(records: list[dict]) -> str | None:
 
 def real_time(r: dict) -> bool:
     """Whether an online run ran in real time (slowdown 1) replanning continuously (neither paced by
-    ``job.min_interval`` nor held by ``job.apply_after``)."""
-    return r.get("slowdown") == 1 and not (r.get("apply_after") or r.get("min_interval"))
+    ``job.min_interval`` nor held by ``job.apply_after``), predicting as far as the last plans took
+    (not ``job.latency_by_samples``)."""
+    levers = r.get("apply_after") or r.get("min_interval") or r.get("latency_by_samples")
+    return r.get("slowdown") == 1 and not levers
 
 
 def online_method(r: dict, usual: str | None = None) -> str:
     """An online run's method: :func:`method_name`, ``paced N ms`` where the planner was paced to a plan
     every ``job.min_interval`` of control time at most, and ``held to N ms`` where each plan was held to act
-    no sooner than ``job.apply_after`` after its state; ``beside N other trials`` where others ran on the
-    machine at the same time (the record's ``concurrent_trials``), so its runs are not counted with the same
-    method's runs alone; ``on <processor>`` where it ran on another processor than ``usual`` (wall-clock
-    runs on different processors are not counted together)."""
+    no sooner than ``job.apply_after`` after its state; ``latency by samples`` where each plan predicted its
+    state as far ahead as the last plans of its samples took (``job.latency_by_samples``); ``beside N
+    other trials`` where others ran on the machine at the same time (the record's ``concurrent_trials``),
+    so its runs are not counted with the same method's runs alone; ``on <processor>`` where it ran on
+    another processor than ``usual`` (wall-clock runs on different processors are not counted together)."""
     paced, held = r.get("min_interval") or 0.0, r.get("apply_after") or 0.0
     others = int(r.get("concurrent_trials") or 1) - 1
     cpu = online_cpu(r)
@@ -850,6 +853,7 @@ def online_method(r: dict, usual: str | None = None) -> str:
         method_name(r)
         + (f", paced {1e3 * paced:.0f} ms" if paced > 0 else "")
         + (f", held to {1e3 * held:.0f} ms" if held > 0 else "")
+        + (", latency by samples" if r.get("latency_by_samples") else "")
         + (f", beside {others} other trial{'s' * (others > 1)}" if others > 0 else "")
         + (f", on {cpu}" if usual is not None and cpu != usual else "")
     )
@@ -2663,7 +2667,11 @@ def online(study) -> str:
         "the simulated loop at the calibrated latency) instead of continuously. *Held to N ms*: each plan "
         "acted no sooner than N ms of control time after its state (`job.apply_after`, not the paper's: a "
         "plan ready sooner waits, so plans act at the simulated trial's fixed latency where the machine "
-        "plans within it). A run's wall-clock time is its processor's: runs on another processor than the "
+        "plans within it). *Latency by samples*: each plan predicted its state (`compensation=predict`) as "
+        "far ahead as the last plans that drew the samples it was expected to draw took "
+        "(`job.latency_by_samples`, not the paper's), not the last plans whatever they drew (`EXTRA="
+        '"job.latency_by_samples=true" SUFFIX=_bysamples bash studies/method/run_online.sh`). '
+        "A run's wall-clock time is its processor's: runs on another processor than the "
         "one most runs ran on are named with theirs (*on ...*) and counted apart.\n\n"
     )
     if not records:
