@@ -228,7 +228,7 @@ class OnlineLoop:
         reference, most likely). Needs a published plan."""
         planner = self.trial.planner
         samples = int(planner.samples_at(planner.reference_time(t)))
-        if getattr(planner, "acquire_error", None) is not None:
+        if planner.acquire_error is not None:
             samples = max(samples, int(self.plans[-1].info.samples))
         return samples
 
