@@ -150,11 +150,41 @@ def test_surface_and_clearance_terms_match_geom_distance(scene_for, task):
     assert clear_pairs > 0 and clear.max() > 0.0  # some link not yet expected within the margin
 
 
+def test_clearance_term_is_the_same_read_only_as_far_as_its_margin(scene_for):
+    """The clearance term reads the same from distances read up to its margin (``scene.link_distance_cutoff``
+    = ``cost.clearance``, as the method reads them) as from distances read up to 5 cm, bit for bit (a link
+    farther than the margin adds nothing either way), so the tighter cutoff changes no trial; a cutoff short
+    of the margin is refused, naming it."""
+    clearance = 0.03
+    terms = []
+    for cutoff in (0.05, clearance):
+        scene = scene_for("stapler", f"scene.link_distance_cutoff={cutoff}")
+        m = scene.planner_model
+        ref = static_reference(scene, active_links=21)
+        ref.contact_active[:] = False
+        ref.contact_active[len(ref.contact_active) // 2 :, 3:8] = True
+        track = ReferenceTrack.build(ref, scene.task.layout, scene.task.time_scale, m.opt.timestep, 1.0)
+        data = scene.make_data(m)
+        x0 = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+        mujoco.mj_getState(m, data, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        rng = np.random.default_rng(5)
+        ctrl = scene.task.hand_home + rng.normal(0, 0.3, (3, 20, m.nu))
+        with RolloutEngine(m, nthread=1) as engine:
+            _, sensordata, _ = engine.run(x0, ctrl)
+        cost = TrackingCost(clearance_weight=1.0, clearance=clearance)
+        cost.bind(scene, track)
+        terms.append(cost.clearance_term(sensordata, track.window(0.3, 20)))
+    np.testing.assert_array_equal(terms[0], terms[1])
+    assert terms[0].max() > 0.0  # some link within the margin
+    with pytest.raises(ValueError, match="scene.link_distance_cutoff is 0.03"):
+        TrackingCost(clearance_weight=1.0, clearance=0.04).bind(scene, track)
+
+
 def test_clearance_links_hold_every_link_off_until_the_reference_has_that_many(scene_for):
     """``clearance_links=k``: the clearance term keeps a link off until the reference first expects k links
     at once, or until the link's own first expected contact if later; 0 (the default) is each link's own
     first expected contact, bit for bit; a k the reference never reaches keeps every link off throughout."""
-    scene = scene_for("stapler", "scene.link_distance_cutoff=0.05")
+    scene = scene_for("stapler", "scene.link_distance_cutoff=0.5")
     m = scene.planner_model
     ref = static_reference(scene, active_links=21)
     ref.contact_active[:] = False

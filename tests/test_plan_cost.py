@@ -133,3 +133,31 @@ def test_profile_job_splits_a_plan_by_phase_and_part(tmp_path):
         assert r["plan_us"] > 0 and r["plan_fast_us"] > 0 and r["cost"] > 0
     assert "all" in result["summary"] and (tmp_path / "profile.csv").exists()
     assert "| apple" in result["table"]
+
+
+def test_distance_cutoff_reads_the_link_distances_only_that_far_and_moves_nothing():
+    """``distance_cutoff``: the planning model's link-object distance sensors read up to it (the others and
+    the physics as the scene's, bit for bit; a link farther reads the cutoff); the scene's models untouched;
+    a cut the scene does not know, or a cutoff that is not positive, is refused naming it."""
+    from contactmpc.scene import SceneError
+
+    scene = build_scene(("task=stapler", "scene.link_distance_cutoff=0.05"))
+    m = scene.planner_model
+    dist = m.sensor_type == mujoco.mjtSensor.mjSENS_GEOMDIST
+    near = planning_model(scene, distance_cutoff=0.03)
+    assert (near.sensor_cutoff[dist] == 0.03).all() and (m.sensor_cutoff[dist] == 0.05).all()
+    state = np.empty(mujoco.mj_stateSize(m, STATE))
+    mujoco.mj_getState(m, scene.make_data(m), state, STATE)
+    ctrl = scene.task.hand_home + np.random.default_rng(5).normal(0, 0.3, (60, m.nu))  # fingers near it
+    q0, s0 = _rollout(m, state, ctrl)
+    q1, s1 = _rollout(near, state, ctrl)
+    assert np.array_equal(q0, q1)
+    cols = np.flatnonzero(np.repeat(dist, m.sensor_dim))  # the distance sensors' columns
+    others = np.setdiff1d(np.arange(m.nsensordata), cols)
+    assert np.array_equal(s0[:, others], s1[:, others])
+    assert np.array_equal(np.minimum(s0[:, cols], 0.03), s1[:, cols])
+    assert (s0[:, cols] > 0.03).any() and (s0[:, cols] < 0.03).any()  # both sides of the cutoff met
+    with pytest.raises(SceneError, match="distance_cutoff = 0"):
+        planning_model(scene, distance_cutoff=0)
+    with pytest.raises(SceneError, match="not among options, hand_pairs, distance_cutoff"):
+        build_scene(("task=apple", "scene.planning_cuts={far: 1}"))

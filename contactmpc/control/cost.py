@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
+import mujoco
 import numba
 import numpy as np
 
@@ -160,7 +161,8 @@ class TrackingCost:
         Raises:
             ValueError: ``contact_subset="authors_code"`` for a reference without the authors' contact
                 order (``meta["paper_code_contacts"]``); ``surface_weight`` or ``clearance_weight`` > 0
-                in a scene without distance sensors.
+                in a scene without distance sensors; ``clearance_weight`` > 0 with the sensors read less
+                far than ``clearance`` (a cutoff of ``clearance`` is enough: a link farther adds nothing).
         """
         for name in ("surface_weight", "clearance_weight"):
             if getattr(self, name) > 0.0 and scene.index.link_object_dist.shape[1] == 0:
@@ -168,6 +170,13 @@ class TrackingCost:
                     f"cost.{name} > 0 needs the scene's link-object distance sensors: set "
                     "scene.link_distance_cutoff > 0 (e.g. 0.05)"
                 )
+        m = scene.planner_model
+        cutoffs = m.sensor_cutoff[m.sensor_type == mujoco.mjtSensor.mjSENS_GEOMDIST]
+        if self.clearance_weight > 0.0 and cutoffs.size and cutoffs.min() < self.clearance:
+            raise ValueError(
+                f"cost.clearance = {self.clearance} m needs the link-object distances read at least that "
+                f"far: scene.link_distance_cutoff is {cutoffs.min():g} m"
+            )
         self.scene = scene
         self.track = track
         self._qo = as_index(scene.index.object_qo)
