@@ -114,8 +114,9 @@ def test_profile_job_splits_a_plan_by_phase_and_part(tmp_path):
     from tests.conftest import compose_config
 
     cfg = compose_config(
-        ("task=apple", "job=profile", "job.every=2.0", "job.repeats=1", "duration=4.5",
-         "+job.alternatives.fast={hand_pairs: across_fingers}")
+        ("task=apple", "job=profile", "job.every=2.0", "job.repeats=1", "duration=4.5", "effort=acquire",
+         "+job.alternatives.fast={hand_pairs: across_fingers}",
+         "+job.alternatives.pyramidal={options: {cone: pyramidal}}")
     )  # fmt: skip
     import launch
 
@@ -130,7 +131,10 @@ def test_profile_job_splits_a_plan_by_phase_and_part(tmp_path):
     for r in rows:
         parts = sum(r[p] for p in ("collision", "constraint", "sensors", "kinematics", "physics_rest"))
         assert parts == pytest.approx(r["rollout_us"])  # the timers split the rollout's time
-        assert r["plan_us"] > 0 and r["plan_fast_us"] > 0 and r["cost"] > 0
+        assert r["plan_us"] > 0 and r["plan_fast_us"] > 0 and r["plan_pyramidal_us"] > 0 and r["cost"] > 0
+    # effort=acquire: the plans draw 128 samples from the start, the candidates timed 32; a plan per its own
+    assert [r["plan_samples"] for r in rows] == [128, 128, 128]
+    assert result["alternatives"]["pyramidal"] == {"options": {"cone": "pyramidal"}}  # nested: written
     assert "all" in result["summary"] and (tmp_path / "profile.csv").exists()
     assert "| apple" in result["table"]
 

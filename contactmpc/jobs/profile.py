@@ -27,9 +27,11 @@ up to it;
 - ``cost``: the cost's evaluation (Python/numba); ``planner_rest``: the plan less the rollout and the cost
   (sampling, splines to controls, the update).
 
-Every figure is per sample-step (microseconds of one thread for one planning-model step of one sample),
-grouped by phase of the reference's contact timeline: ``before`` the first expected contact, ``contact``
-(from the first to the last expected contact) and ``after`` it. With ``alternatives`` (name -> planning-
+Every figure is per sample-step (microseconds of one thread for one planning-model step of one sample; a
+plan's per the samples it draws, ``plan_samples``: ``acquire_samples`` where the planner draws them, more
+than the candidates the rollout and the parts are timed on), grouped by phase of the reference's contact
+timeline: ``before`` the first expected contact, ``contact`` (from the first to the last expected contact)
+and ``after`` it. With ``alternatives`` (name -> planning-
 model cuts, :func:`contactmpc.scene.planning_model`) each state also times the planning iteration with
 each alternative planning model, interleaved with the scene's, so that old and new meet the same load.
 The machine's load (``os.getloadavg``) is recorded before and after. Prints a markdown table and writes
@@ -41,7 +43,7 @@ from __future__ import annotations
 import csv
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -136,6 +138,15 @@ def physics_parts(model: mujoco.MjModel, state: np.ndarray, controls: np.ndarray
     return parts | {"ncon": ncon / n, "nefc": nefc / n}
 
 
+def _plain(value: Any) -> Any:
+    """A config value as plain dicts and lists (the record is JSON; the config's nodes are not)."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, Sequence) and not isinstance(value, str):
+        return [_plain(v) for v in value]
+    return value
+
+
 def profile_state(
     trial: Trial, t: float, state: np.ndarray, seed: int, repeats: int, alternatives: dict[str, Any]
 ) -> dict[str, float]:
@@ -153,11 +164,14 @@ def profile_state(
     _, sd, _ = engine.run(state, ctrl)
     sd = sd.copy()
 
+    drawn: list[int] = []  # the sample-steps of each timed plan (its own samples: acquire_samples, ...)
+
     def plan_with(model: mujoco.MjModel) -> Callable[[], None]:
         def plan() -> None:
             engine.model = model
             planner.theta[:] = theta0  # the same candidates every time
-            planner.plan(t, state, np.random.default_rng(seed))
+            info = planner.plan(t, state, np.random.default_rng(seed))
+            drawn.append(info.samples * planner.steps)
 
         return plan
 
@@ -172,6 +186,9 @@ def profile_state(
         engine.model = scene_model
         planner.theta[:] = theta0
     per = 1e6 / (S * H)
+    if len(set(drawn)) != 1:
+        raise RuntimeError(f"t={t:.2f}: the timed plans drew different sample-steps ({sorted(set(drawn))})")
+    per_plan = 1e6 / drawn[0]  # a plan per its own sample-steps, which may be more than the candidates'
     parts = physics_parts(scene_model, state, ctrl)
     rollout_us = per * timed["rollout"]["cpu"]
     share = rollout_us / parts["step"]  # the loop's timers split the real rollout's CPU time
@@ -180,8 +197,9 @@ def profile_state(
         "phase": phase_of(trial, t),
         "ncon": parts["ncon"],
         "nefc": parts["nefc"],
-        "plan_us": per * timed["plan"]["cpu"],
-        "plan_wall_us": per * timed["plan"]["wall"],
+        "plan_samples": drawn[0] // planner.steps,
+        "plan_us": per_plan * timed["plan"]["cpu"],
+        "plan_wall_us": per_plan * timed["plan"]["wall"],
         "rollout_us": rollout_us,
         "loop_step_us": 1e6 * parts["step"],
     }
@@ -189,7 +207,7 @@ def profile_state(
     row["cost"] = per * timed["cost"]["cpu"]
     row["planner_rest"] = row["plan_us"] - row["rollout_us"] - row["cost"]
     for name in alternatives:
-        row[f"plan_{name}_us"] = per * timed[f"plan_{name}"]["cpu"]
+        row[f"plan_{name}_us"] = per_plan * timed[f"plan_{name}"]["cpu"]
     return row
 
 
@@ -294,7 +312,7 @@ def profile_plan(
     load_before = os.getloadavg()
     start = time.perf_counter()
     scene = make_scene()
-    alternatives = {k: dict(v) for k, v in (alternatives or {}).items()}
+    alternatives = {k: _plain(v) for k, v in (alternatives or {}).items()}
     models = {name: planning_model(scene, **cuts) for name, cuts in alternatives.items()}
     reference = get_reference(scene, reference_cache)
     planner.close()
