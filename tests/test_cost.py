@@ -296,3 +296,58 @@ def test_rest_term_is_the_objects_speed_after_the_last_expected_contact(scene_fo
     assert (plain["rest"] == 0.0).all()
     for name in TrackingCost.terms[:-1]:
         np.testing.assert_array_equal(plain[name], terms[name])
+
+
+def test_lazy_distances_compute_only_the_distances_a_plan_reads_and_change_no_trial(scene_for):
+    """``planner.lazy_distances``: a plan computes the link-object distances only of the links a term reads
+    in its window (the clearance term's before their first expected contact; a link expected from the start
+    never, a link never expected always); the trial logs the same, bit for bit (but the plans' wall time),
+    and the engine's model keeps its distance sensors between plans; refused with a robust ensemble."""
+    from contactmpc.control.planners import PredictiveSampling
+    from contactmpc.control.robust import ModelEnsemble
+    from contactmpc.control.samplers import PCASplineSpace
+    from contactmpc.trial import Trial
+    from contactmpc.validate import ConfigError
+
+    scene = scene_for("stapler", "scene.link_distance_cutoff=0.05")
+    ref = static_reference(scene, duration=0.6, active_links=21)
+    n = len(ref.contact_active)
+    ref.contact_active[:] = False
+    ref.contact_active[:, 3:6] = True  # expected from the start: never read
+    ref.contact_active[n // 2 :, 6:10] = True  # read until their first expected contact, halfway
+    geomdist = mujoco.mjtSensor.mjSENS_GEOMDIST
+    runs, unread = [], []
+    for lazy in (False, True):
+        planner = PredictiveSampling(num_samples=8, horizon=0.2, nthread=1, replan_period=0.05,
+                                     lazy_distances=lazy)  # fmt: skip
+        cost = TrackingCost(lambda_v=0.0, clearance_weight=100.0, clearance=0.05)
+        trial = Trial(scene, ref, PCASplineSpace(0.2), cost, planner, 3, duration=0.8, progress=False)
+        if lazy:
+            real = planner._unread_distances
+
+            def spy(window, real=real):
+                ids = real(window)
+                unread.append((window.start, ids.copy()))
+                return ids
+
+            planner._unread_distances = spy
+        try:
+            runs.append(trial.run().arrays())
+        finally:
+            planner.close()
+    m, idx = scene.planner_model, scene.index
+    assert (m.sensor_type[np.searchsorted(m.sensor_adr, idx.link_object_dist.ravel())] == geomdist).all()
+    sensors = {link: set(np.searchsorted(m.sensor_adr, idx.link_object_dist[link])) for link in range(21)}
+    first = int(np.argmin(cost._before_first[:, 7]))  # link 7's first expected contact, on the track
+    assert unread and all(sensors[4] <= set(ids) for _, ids in unread)  # expected from the start
+    assert all(not sensors[0] & set(ids) for _, ids in unread)  # never expected: always computed
+    early = [ids for start, ids in unread if start < first]
+    late = [ids for start, ids in unread if start >= first]
+    assert early and late
+    assert all(not sensors[7] & set(ids) for ids in early) and all(sensors[7] <= set(ids) for ids in late)
+    assert runs[0]["cost_clearance"].max() > 0.0  # the term is met
+    for key in runs[0]:
+        if key != "plan_seconds":
+            np.testing.assert_array_equal(runs[0][key], runs[1][key], err_msg=key)
+    with pytest.raises(ConfigError, match="lazy_distances.*not with planner.guidance or planner.robust"):
+        PredictiveSampling(num_samples=8, horizon=0.2, lazy_distances=True, robust=ModelEnsemble())

@@ -346,9 +346,10 @@ def test_compensation_is_a_group_and_names_the_method_with_it():
     )
 
 
-NEAR = ("scene.link_distance_cutoff=0.01",)
+NEAR = ("scene.link_distance_cutoff=0.01", "planner.lazy_distances=true")
 """What variant=grasp_held_expected_adaptive sets beside its groups: the clearance term's distances read up to
-its 1 cm margin, not 5 cm (the same costs bit for bit, so the same trials; fewer geomdist computations)."""
+its 1 cm margin, not 5 cm, and computed only in the plans that read them (the same costs bit for bit, so the
+same trials, tests/test_cost.py; fewer geomdist computations)."""
 
 
 def _paper_apple(*overrides) -> tuple[dict, dict]:

@@ -268,6 +268,17 @@ class TrackingCost:
         np.add.at(out.T, h, (np.maximum(d, 0.0) ** 2).T)
         return out
 
+    def distances_read(self, window: slice) -> np.ndarray:
+        """(L,) the links whose link-object distances (the scene's ``geomdist`` sensors) a term reads
+        somewhere in ``window``: the clearance term's before their first expected contact, the surface
+        term's where their contact is expected; none without either term."""
+        read = np.zeros(self._before_first.shape[1], bool)
+        if self.clearance_weight > 0.0:
+            read |= self._before_first[window].any(axis=0)
+        if self.surface_weight > 0.0:
+            read |= self._active[window].any(axis=0)
+        return read
+
     def clearance_term(self, sensordata: np.ndarray, window: slice) -> np.ndarray:
         """Unweighted clearance term: ``sum_l max(clearance - d_l, 0)^2`` over the links ``l`` whose first
         expected contact (in the reference) is still to come, ``d_l`` the link's smallest distance to any

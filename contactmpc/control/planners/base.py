@@ -306,6 +306,14 @@ class Planner:
             many and the next takes in as many as its own size allows at that share, so the grasp's
             larger plans carry the same share of runners-up as the later ones; False (the default):
             ``reuse`` of them whatever a plan's size.
+        lazy_distances: compute a link's link-object distance sensors (``scene.link_distance_cutoff``) only
+            in the plans whose window the cost reads them in (:meth:`TrackingCost.distances_read
+            <contactmpc.control.cost.TrackingCost.distances_read>`: the clearance term's links before
+            their first expected contact, the surface term's expected ones); the others are computed as
+            MuJoCo's clock, the cheapest sensor, in the same place, for that plan's rollouts. The same
+            costs, so the same trial bit for bit, at fewer ``geomdist`` computations (not the paper's, which
+            has no such sensors); False (the default): every distance at every step. Not with ``guidance``
+            or ``robust`` (their planning models are not the engine's).
     """
 
     needs_rollouts = True
@@ -371,6 +379,7 @@ class Planner:
         reuse_until: float | None = None,
         reuse_grasp: Annotated[int, Ge(0)] = 0,
         reuse_scaled: bool = False,
+        lazy_distances: bool = False,
     ) -> None:
         if latency and latency_model is not None:
             raise ConfigError(
@@ -532,6 +541,12 @@ class Planner:
         self.reuse_until = None if reuse_until is None else float(reuse_until)
         self.reuse_grasp = int(reuse_grasp)
         self.reuse_scaled = bool(reuse_scaled)
+        self.lazy_distances = bool(lazy_distances)
+        if self.lazy_distances and (guidance is not None or robust is not None):
+            raise ConfigError(
+                "planner.lazy_distances switches the distance sensors of the rollout engine's own planning "
+                "model: not with planner.guidance or planner.robust"
+            )
         self._reuse_from: float | None = None  # (reuse_grasp) reference time of the reference's grasp
         self._reuse_gate = True  # (reuse_fingers, reuse_alone, reuse_until) whether this plan carries them in
         # (reuse) the last plan's runners-up: its window and their differences from what it committed
@@ -1045,7 +1060,12 @@ class Planner:
             num_models, num_cand = len(self._models), len(thetas)
             ctrl = np.concatenate([ctrl] * num_models, axis=0)
             models = [m for m in self._models for _ in range(num_cand)]
-        _, sensordata, diverged = self.engine.run(state, ctrl, models, extra)
+        unread = self._unread_distances(window) if self.lazy_distances else None
+        try:
+            _, sensordata, diverged = self.engine.run(state, ctrl, models, extra)
+        finally:
+            if unread is not None:
+                self.engine.model.sensor_type[unread] = mujoco.mjtSensor.mjSENS_GEOMDIST
         n = window.stop - window.start
         terms = {k: v.sum(axis=-1) for k, v in self.problem.cost(sensordata[:, :n], window).items()}
         total = sum(terms.values())
@@ -1055,6 +1075,19 @@ class Planner:
             terms = {name: v.reshape(num_models, num_cand).mean(axis=0) for name, v in terms.items()}
             diverged = diverged.reshape(num_models, num_cand).any(axis=0)
         return total, terms, diverged
+
+    def _unread_distances(self, window: slice) -> np.ndarray | None:
+        """(``lazy_distances``) Switch the engine model's link-object distance sensors that the cost reads
+        nowhere in ``window`` to MuJoCo's clock (one number, computed at the same stage, in the same
+        place); returns their ids, which :meth:`evaluate` switches back after the rollout (``None``: the
+        scene has none)."""
+        m, idx = self.engine.model, self.problem.scene.index
+        if idx.link_object_dist.shape[1] == 0:
+            return None
+        unread = ~self.problem.cost.distances_read(window)  # (L,) links
+        ids = np.searchsorted(m.sensor_adr, idx.link_object_dist[unread].ravel())
+        m.sensor_type[ids] = mujoco.mjtSensor.mjSENS_CLOCK
+        return ids
 
     def candidates(
         self, rng: np.random.Generator, t: float, iteration: int = 0
