@@ -838,14 +838,22 @@ def real_time(r: dict) -> bool:
     return r.get("slowdown") == 1 and not levers
 
 
+def lazy_distances(r: dict) -> bool:
+    """Whether a record's planner computed the link-object distances only where its cost read them
+    (``planner.lazy_distances``, from the record's config)."""
+    return bool(((r.get("config") or {}).get("planner") or {}).get("lazy_distances"))
+
+
 def online_method(r: dict, usual: str | None = None) -> str:
     """An online run's method: :func:`method_name`, ``paced N ms`` where the planner was paced to a plan
     every ``job.min_interval`` of control time at most, and ``held to N ms`` where each plan was held to act
     no sooner than ``job.apply_after`` after its state; ``latency by samples`` where each plan predicted its
-    state as far ahead as the last plans of its samples took (``job.latency_by_samples``); ``beside N
-    other trials`` where others ran on the machine at the same time (the record's ``concurrent_trials``),
-    so its runs are not counted with the same method's runs alone; ``on <processor>`` where it ran on
-    another processor than ``usual`` (wall-clock runs on different processors are not counted together)."""
+    state as far ahead as the last plans of its samples took (``job.latency_by_samples``); ``distances only
+    where read`` where the planner computed the clearance term's distances only in the plans that read them
+    (``planner.lazy_distances``: the same plans, sooner); ``beside N other trials`` where others ran on the
+    machine at the same time (the record's ``concurrent_trials``), so its runs are not counted with the same
+    method's runs alone; ``on <processor>`` where it ran on another processor than ``usual`` (wall-clock
+    runs on different processors are not counted together)."""
     paced, held = r.get("min_interval") or 0.0, r.get("apply_after") or 0.0
     others = int(r.get("concurrent_trials") or 1) - 1
     cpu = online_cpu(r)
@@ -854,6 +862,7 @@ def online_method(r: dict, usual: str | None = None) -> str:
         + (f", paced {1e3 * paced:.0f} ms" if paced > 0 else "")
         + (f", held to {1e3 * held:.0f} ms" if held > 0 else "")
         + (", latency by samples" if r.get("latency_by_samples") else "")
+        + (", distances only where read" if lazy_distances(r) else "")
         + (f", beside {others} other trial{'s' * (others > 1)}" if others > 0 else "")
         + (f", on {cpu}" if usual is not None and cpu != usual else "")
     )

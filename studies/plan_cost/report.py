@@ -45,6 +45,12 @@ _METHOD = (
     "'+job.alternatives.no_sensors={{options: {{disableflags: 8192}}}}' "
     "hydra.run.dir=outputs/plan_cost/profile_near/{task}"
 )
+#: The method as it runs (its distances to 1 cm, planner.lazy_distances), beside it without sensors.
+_LAZY = (
+    "python launch.py job=profile task={task} seed=0 job.visit=replay job.every=2.5 job.repeats=1 "
+    "'+job.alternatives.no_sensors={{options: {{disableflags: 8192}}}}' "
+    "hydra.run.dir=outputs/plan_cost/profile_lazy/{task}"
+)
 _METHOD_PAIRS = [("paper_stapler", "paper_apple"), ("paper_bottle", "paper_doorknob")]
 EXPERIMENTS = [
     *(
@@ -78,6 +84,12 @@ EXPERIMENTS = [
     ),
     "python studies/plan_cost/profile_table.py outputs/plan_cost/profile_near "
     "--csv studies/plan_cost/records/profile_method.csv --runs studies/plan_cost/records/runs_method.csv",
+    *(
+        " & ".join(_LAZY.format(task=t) for t in pair) + " & wait  # two at once, nothing else running"
+        for pair in _METHOD_PAIRS
+    ),
+    "python studies/plan_cost/profile_table.py outputs/plan_cost/profile_lazy "
+    "--csv studies/plan_cost/records/profile_lazy.csv --runs studies/plan_cost/records/runs_lazy.csv",
     "bash studies/plan_cost/run_online.sh map  # the map: records/map/<run>/trial.json",
     "python -m pytest -q -s tests/test_agreement.py -k across_fingers  # the gaps it prints per contact state"
     " -> records/agreement.csv; its none column: the same measure with hand_pairs=none for the cut",
@@ -508,16 +520,36 @@ def report(study) -> str:
     return "\n".join(out) + "\n"
 
 
+def _method_rows(rec: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The method's profiles, one row per visited state: ``far`` (distances read to 5 cm), ``near`` (to
+    1 cm) and ``bare`` (no sensors) from ``profile_method.csv``; where ``profile_lazy.csv`` is kept, the
+    method as it runs (1 cm and ``planner.lazy_distances``: ``lazy``) and, interleaved with it, no sensors
+    (``lazy_bare``) in that second run. With the runs of both."""
+    rows = pd.read_csv(rec / "profile_method.csv")
+    rows["task"] = rows["run"].str.split(" ").str[0].str.removeprefix("paper_")
+    rows = rows.rename(columns={"plan_us": "far", "plan_near_us": "near", "plan_no_sensors_us": "bare"})
+    runs = [pd.read_csv(rec / "runs_method.csv")]
+    if (rec / "profile_lazy.csv").is_file():
+        lazy = pd.read_csv(rec / "profile_lazy.csv")
+        lazy["task"] = lazy["run"].str.split(" ").str[0].str.removeprefix("paper_")
+        lazy = lazy.rename(columns={"plan_us": "lazy", "plan_no_sensors_us": "lazy_bare"})
+        rows = rows.merge(lazy[["task", "time", "lazy", "lazy_bare"]], on=["task", "time"])
+        runs.append(pd.read_csv(rec / "runs_lazy.csv"))
+    return rows, pd.concat(runs)
+
+
 def method_section(study) -> list[str]:
     """The method's plan over each paper task's replayed trial: its per sample-step cost by phase with the
-    link distances read to 5 cm, to the clearance term's 1 cm margin and without sensors; and what its
-    grasp's plans (``acquire_samples``) cost on the paper's 7 threads against the calibrated latency."""
-    head = ["## The method's plan, and its distances read only to the clearance margin", ""]
+    link distances read to 5 cm, to the clearance term's 1 cm margin, also only in the plans that read
+    them (``planner.lazy_distances``: the method as it runs), and without sensors; and what its grasp's
+    plans (``acquire_samples``) cost on the paper's 7 threads against the calibrated latency."""
+    head = ["## The method's plan, and its distances computed only where they are read", ""]
     rec = study.dir / "records"
     if not (rec / "profile_method.csv").is_file():
         return [*head, "No profile of the method is kept yet (`records/profile_method.csv`)."]
-    rows, runs = pd.read_csv(rec / "profile_method.csv"), pd.read_csv(rec / "runs_method.csv")
-    rows["task"] = rows["run"].str.split(" ").str[0].str.removeprefix("paper_")
+    rows, runs = _method_rows(rec)
+    lazy = "lazy" in rows
+    own = "lazy" if lazy else "near"  # the method as it runs
     method = sorted({r.split(" ")[1] for r in rows["run"]})
     _, steps, threads, _ = _latency_model()
     calibrated = float(_preset(CALIBRATED["latency"]).planner.latency)
@@ -528,10 +560,13 @@ def method_section(study) -> list[str]:
             if sel.empty:
                 continue
             m = sel.mean(numeric_only=True)
+            # the saving against 5 cm, each run's cost over its own no-sensor model timed interleaved with
+            # it (two runs at different times: the machine's speed divides out)
+            own_bare = m["lazy_bare"] if lazy else m["bare"]
             table.append(
                 {"task": task, "phase": phase, "states": len(sel), "samples": _span(sel["plan_samples"]),
-                 "far": m["plan_us"], "near": m["plan_near_us"], "x": m["plan_us"] / m["plan_near_us"],
-                 "bare": m["plan_no_sensors_us"], "rollout": m["rollout_us"]}
+                 "far": m["far"], "near": m["near"], "own": m[own], "bare": m["bare"], "own_bare": own_bare,
+                 "saved": (m["far"] / m["bare"]) / (m[own] / own_bare), "rollout": m["rollout_us"]}
             )  # fmt: skip
     t = pd.DataFrame(table)
     columns = {
@@ -540,20 +575,29 @@ def method_section(study) -> list[str]:
         "states": t["states"],
         "samples a plan": t["samples"],
         "plan µs, distances to 5 cm": t["far"].map(_f),
-        "plan µs, to 1 cm (the method's)": t["near"].map(_f),
-        "5 cm / 1 cm": t["x"].map(lambda x: f"{x:.2f}x"),
-        "plan µs without sensors": t["bare"].map(_f),
+        "to 1 cm": t["near"].map(_f),
+        "without sensors": t["bare"].map(_f),
+        **(
+            {
+                "to 1 cm, only where read (the method's; 2nd run)": t["own"].map(_f),
+                "without sensors (2nd run)": t["own_bare"].map(_f),
+            }
+            if lazy
+            else {}
+        ),
+        "saving, 5 cm / the method's": t["saved"].map(lambda x: f"{x:.2f}x"),
         "rollout µs (its candidates)": t["rollout"].map(_f),
     }
     grasp = []
     for task, g in rows.groupby("task", sort=False):
         most = g["plan_samples"].max()
         sel = g[g["plan_samples"] == most]
-        us = sel["plan_near_us"].to_numpy()
+        us, far = sel[own].to_numpy(), sel["far"].to_numpy()
         ms = most * steps * us / threads / 1e3
         grasp.append(
             {"task": task, "samples": most, "states": len(us), "us": np.median(us), "lo": us.min(),
-             "hi": us.max(), "ms": np.median(ms), "ms_lo": ms.min(), "ms_hi": ms.max()}
+             "hi": us.max(), "ms": np.median(ms), "ms_lo": ms.min(), "ms_hi": ms.max(),
+             "ms_far": np.median(most * steps * far / threads / 1e3)}
         )  # fmt: skip
     gr = pd.DataFrame(grasp)
     grasp_columns = {
@@ -568,44 +612,70 @@ def method_section(study) -> list[str]:
             for a, b, c in zip(gr["ms"], gr["ms_lo"], gr["ms_hi"], strict=True)
         ],
         "× the calibrated": (gr["ms"] / (calibrated * 1e3)).map(lambda x: f"{x:.1f}x"),
+        "median ms, distances to 5 cm (1st run)": gr["ms_far"].map(lambda x: f"{x:.0f}"),
     }
-    alls = t[t["phase"] == "all"]
-    sensors = 1 - alls["bare"] / alls["near"]
+    alls = t[t["phase"] == "all"].set_index("task")
+    grasping = t[t["phase"].isin(["before", "contact"])]
+    sensors = 1 - alls["own_bare"] / alls["own"]
     loads = pd.concat([runs["load_before"], runs["load_after"]])
     cpu = sorted(set(runs["cpu"]))
     worst = gr.loc[gr["ms"].idxmax()]
     over = gr[gr["ms"] > calibrated * 1e3 * 1.05]  # more than the calibrated figure, beyond its rounding
+    saved = alls["saved"]
+    best = saved.idxmax()
     return [
         *head,
         f"The method ({', '.join(f'`{m}`' for m in method)}, the paper tasks' default) profiled over each "
         f"paper task's replayed trial (a state every 2.5 s, seed 0), two runs at once on a quiet machine "
-        f"({', '.join(cpu)}; 1-minute load average {loads.min():.1f}-{loads.max():.1f}), with its clearance "
-        "term's link-object distances read to 5 cm (`shaping=clearance`'s `scene.link_distance_cutoff`) and, "
-        "interleaved at each state, the same planning model reading them only to the term's 1 cm margin "
-        "(`near`: the method's since the variant sets `scene.link_distance_cutoff=0.01`; the same costs bit "
-        "for bit, `tests/test_cost.py`) and with no sensors at all (`no_sensors`: what the sensors cost). "
-        "A plan is per the samples it draws (`samples a plan`: 128 while `effort=acquire_error` draws the "
-        "grasp's), the rollout per its 32 candidates (`records/profile_method.csv`, "
-        "`records/runs_method.csv`):",
+        f"({', '.join(cpu)}; 1-minute load average {loads.min():.1f}-{loads.max():.1f}). Its clearance term "
+        "reads each link's distance to the object from `geomdist` sensors, one per pair of link geom and "
+        "object geom, which MuJoCo computes at every step of every rollout. Priced at the same states: the "
+        "distances read to 5 cm (`shaping=clearance`'s `scene.link_distance_cutoff`), and, interleaved with "
+        "it, read only to the term's 1 cm margin (`scene.planning_cuts={distance_cutoff: 0.01}`)"
+        + (
+            "; then, in a second run, the method as it runs: to 1 cm and only in the plans whose window "
+            "has the link before its first expected contact (`planner.lazy_distances`), interleaved with "
+            "the same planning model without any sensor (what the sensors still cost)"
+            if lazy
+            else "; and with no sensors at all (what the sensors cost)"
+        )
+        + ". Each setting leaves every cost the same bit for bit (`tests/test_cost.py`), so every trial. "
+        "A plan is priced per the samples it draws (`samples a plan`: 128 while `effort=acquire_error` draws "
+        "the grasp's), the rollout per its 32 candidates (`records/profile_method.csv`"
+        + (", `records/profile_lazy.csv`" if lazy else "")
+        + " and their runs):",
         "",
         _table(columns),
         "",
-        "- **Reading the distances only to the margin saves "
-        f"{_range(alls['x'].to_numpy(), 2)}x** over each trial (mean per sample-step, 5 cm / 1 cm), the "
-        "trial unchanged. The sensors still cost "
-        f"{_range(100 * sensors.to_numpy(), 0)} % of the method's plan over the trial (1 - without sensors "
-        "/ 1 cm): the `geomdist` sensors of every link against every object geom, computed at every step "
-        "whether or not a link's clearance is still to come.",
+        f"- **Over each trial the method's plan costs {_range(saved.to_numpy(), 2)}x less** than with the "
+        f"distances read to 5 cm at every step (mean per sample-step), the trial unchanged; the most on the "
+        f"{best} ({saved[best]:.2f}x), and "
+        f"{_range(grasping['saved'].to_numpy(), 2)}x in the grasp's phases (before and in contact); each "
+        "run's cost taken over its own planning model without sensors, timed interleaved with it, so that "
+        "the machine's speed at the two runs' times divides out. "
+        + (
+            "Reading them only to the margin alone saves "
+            f"{_range((alls['far'] / alls['near']).to_numpy(), 2)}x. "
+            if lazy
+            else ""
+        )
+        + f"The sensors still cost {_range(100 * sensors.to_numpy(), 0)} % of the method's plan over the "
+        "trial (1 - without sensors / the method's).",
         "",
         f"The grasp's plans ({int(gr['samples'].max())} samples x {steps} steps, the states where the "
-        f"method draws the most) on the paper's {threads} threads at the method's own cost (1 cm), against "
-        f"the {calibrated * 1e3:.0f} ms every simulated trial of the calibrated presets charges:",
+        f"method draws the most) on the paper's {threads} threads at the method's own cost, against the "
+        f"{calibrated * 1e3:.0f} ms every simulated trial of the calibrated presets charges:",
         "",
         _table(grasp_columns),
         "",
-        f"- **The calibrated latency is optimistic for the method's grasp on "
-        f"{Fmt.listing([f'the {x}' for x in over['task']]) or 'no task'}**: on {threads} threads of this "
-        f"CPU its plans of the grasp would land after {_range(gr['ms'].to_numpy(), 0)} ms (medians), "
+        (
+            f"- **The calibrated latency is optimistic for the method's grasp on "
+            f"{Fmt.listing([f'the {x}' for x in over['task']])}**"
+            if len(over)
+            else "- **The method's grasp fits the calibrated latency on every task** (within 5 %)"
+        )
+        + f": on {threads} threads of this CPU its plans of the grasp would land after "
+        f"{_range(gr['ms'].to_numpy(), 0)} ms (medians), "
         f"{_range((gr['ms'] / (calibrated * 1e3)).to_numpy(), 1)}x the {calibrated * 1e3:.0f} ms; the most "
         f"on the {worst['task']} ({worst['ms']:.0f} ms, {worst['ms'] / (calibrated * 1e3):.1f}x). The "
         "figure was calibrated on the paper's method (no clearance sensors, `variant=full`), and these are "
