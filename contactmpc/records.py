@@ -29,7 +29,7 @@ import socket
 import subprocess
 import tempfile
 import threading
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -140,9 +140,10 @@ def _atomic_write(path: Path, write) -> None:
 
 
 def _jsonable(x):
-    if isinstance(x, dict):
+    # any mapping and sequence (a config's nodes among them) as JSON's objects and arrays
+    if isinstance(x, Mapping):
         return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
+    if isinstance(x, Sequence) and not isinstance(x, str | bytes):
         return [_jsonable(v) for v in x]
     if isinstance(x, np.generic):
         x = x.item()

@@ -43,7 +43,7 @@ from __future__ import annotations
 import csv
 import os
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -136,15 +136,6 @@ def physics_parts(model: mujoco.MjModel, state: np.ndarray, controls: np.ndarray
     }
     parts["physics_rest"] = parts["step"] - sum(parts[k] for k in PARTS[:4])
     return parts | {"ncon": ncon / n, "nefc": nefc / n}
-
-
-def _plain(value: Any) -> Any:
-    """A config value as plain dicts and lists (the record is JSON; the config's nodes are not)."""
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, Sequence) and not isinstance(value, str):
-        return [_plain(v) for v in value]
-    return value
 
 
 def profile_state(
@@ -312,7 +303,7 @@ def profile_plan(
     load_before = os.getloadavg()
     start = time.perf_counter()
     scene = make_scene()
-    alternatives = {k: _plain(v) for k, v in (alternatives or {}).items()}
+    alternatives = {k: dict(v) for k, v in (alternatives or {}).items()}
     models = {name: planning_model(scene, **cuts) for name, cuts in alternatives.items()}
     reference = get_reference(scene, reference_cache)
     planner.close()
