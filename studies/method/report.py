@@ -2667,9 +2667,10 @@ def online(study) -> str:
     head = (
         "`job=online` runs the plant in wall-clock time and the planner in a second thread on 2 planning "
         "threads here (`planner.nthread=2`), at each paper task's default preset (the latency is the real "
-        "one, not the preset's); `job.slowdown` 2 and 3 stand in for real time on 4 and 6 threads of this "
-        "CPU. Per task and method, slowdown 1, then 2, then 3, until both runs (seeds 0 and 1) complete "
-        "(`bash studies/method/run_online.sh`, other jobs stopped while it runs); `SLOWDOWNS=1 "
+        "one, not the preset's); `job.slowdown` s stands in for real time on 2s threads of this CPU (2 "
+        "and 3: 4 and 6 threads). Per task and method, slowdown 1, then 2, then 3, until both runs (seeds 0 "
+        "and 1) complete (`bash studies/method/run_online.sh`, other jobs stopped while it runs; "
+        '`SLOWDOWNS="6 8"` goes on further); `SLOWDOWNS=1 '
         'SEEDS="2 3 4 5 6 7 8 9"` adds seeds at one slowdown: how often the method completes there, '
         "counted in the second table. *Paced N ms*: the planner "
         "started a plan at most every N ms of control time (`job.min_interval`, not the paper's: the rate of "
