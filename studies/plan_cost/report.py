@@ -730,8 +730,9 @@ def solver_section(study) -> list[str]:
     best = max(sets, key=lambda k: alls[k])
     return [
         *head,
-        f"The scene's planning model solves its constraints with Newton's method on elliptic cones, 100 "
-        "iterations at most, tolerance 1e-8 (MuJoCo's defaults). `job=profile` of the method "
+        "The scene's planning model solves its constraints with Newton's method, at most 100 iterations, "
+        "tolerance 1e-8 (MuJoCo's defaults), on elliptic friction cones (the scene's; MuJoCo's default is "
+        "pyramidal). `job=profile` of the method "
         f"(`{run['run']}`) over its own closed-loop trial (`job.visit=planner`, seed {int(run['seed'])}, "
         f"a state every {run['every']:g} s, {int(run['states'])} states) timed each of these settings "
         "beside it, interleaved (`+job.alternatives.<name>={options: {...}}`): "
