@@ -274,6 +274,29 @@ def test_an_online_plan_held_to_a_fixed_latency_acts_no_sooner(apple_reference):
     assert len(latency[0.0]) >= 2 and (latency[0.0] < 0.1 - 1e-9).all()
 
 
+@pytest.mark.slow
+def test_simulated_timing_runs_the_trials_replan_interval_and_latency_online(apple_reference, tmp_path):
+    """job.simulated_timing=true: the run paces its plans to the trial's replan interval (max of
+    planner.replan_period and planner.latency) and holds each to planner.latency, as the record says; with
+    job.min_interval given too, or a latency per plan, it stops with one line naming the problem."""
+    from contactmpc.validate import ConfigError
+
+    base = ["job=online", "task=apple", f"task.reference_path={apple_reference}", "planner.nthread=1"]
+    base += ["duration=0.5", "job.slowdown=15", "job.progress=false", "job.simulated_timing=true"]
+    timing = ["planner.latency=0.1", "planner.replan_period=0.05"]
+    record = json.loads(run_job(base + timing, tmp_path / "run").read_text())
+    assert record["status"] == "ok", record.get("error")
+    assert record["simulated_timing"] is True
+    assert (record["min_interval"], record["apply_after"]) == (0.1, 0.1)
+    assert record["num_plans"] >= 3
+    # realised: plans start no more often than that, and act no sooner (a plan takes a few ms here)
+    assert record["replan_interval_median"] >= 0.1 - 1e-9 and record["plan_latency_median"] >= 0.1 - 1e-9
+    with pytest.raises(ConfigError, match="give either it or them"):
+        run_job(base + timing + ["job.min_interval=0.2"], tmp_path / "both")
+    with pytest.raises(ConfigError, match="its own latency"):
+        run_job(base + ["loop=per_plan"], tmp_path / "per_plan")
+
+
 class _InterruptingViewer:
     """Stands in for the viewer: Ctrl-C arrives in the plant's thread at its first sync from control time
     0.1 s on (``stopped_at``: that sync's time; a loaded machine syncs later, so it can be past 0.1 s)."""

@@ -26,10 +26,32 @@ from contactmpc.jobs.trial import summarize
 from contactmpc.online import OnlineLoop
 from contactmpc.records import RECORD_NAME, SERIES_NAME, RunningTrials, write_json, write_series
 from contactmpc.scene import Scene
-from contactmpc.validate import Ge, Gt, checked
+from contactmpc.validate import ConfigError, Ge, Gt, checked
 from contactmpc.viewer import LiveViewer
 
 logger = logging.getLogger(__name__)
+
+
+def timing_of(trial, min_interval: float = 0.0, apply_after: float = 0.0) -> tuple[float, float]:
+    """``(min_interval, apply_after)`` that run ``trial``'s simulated timing online: a plan started at
+    most every replan interval of the trial (``max(planner.replan_period, planner.latency)``), each
+    acting no sooner than its latency after its state.
+
+    Raises:
+        ConfigError: ``min_interval`` or ``apply_after`` is given too, or the trial charges each plan its
+            own latency (``planner.latency_per_plan``: online a plan's latency is its compute).
+    """
+    if min_interval or apply_after:
+        raise ConfigError(
+            "job.simulated_timing sets job.min_interval and job.apply_after from the planner: give either it "
+            "or them"
+        )
+    if trial.planner.latency_per_plan:
+        raise ConfigError(
+            "job.simulated_timing: the trial charges each plan its own latency (planner.latency_per_plan); "
+            "online a plan's latency is its compute, so there is no fixed timing to run"
+        )
+    return float(trial.replan_interval), float(trial.latency)
 
 
 @checked
@@ -45,6 +67,7 @@ def run_online(
     min_interval: Annotated[float, Ge(0)] = 0.0,
     apply_after: Annotated[float, Ge(0)] = 0.0,
     latency_by_samples: bool = False,
+    simulated_timing: bool = False,
     config: dict | None = None,
     labels: dict | None = None,
 ) -> Path:
@@ -76,6 +99,10 @@ def run_online(
         latency_by_samples: with ``planner.compensate_latency``, predict each plan's state as far ahead
             as the last plans of the samples it is expected to draw took
             (:class:`~contactmpc.online.OnlineLoop`); False: the last plans, whatever they drew.
+        simulated_timing: (not the paper's) run the simulated trial's timing where the machine plans
+            within it: ``min_interval`` the trial's replan interval (``max(planner.replan_period,
+            planner.latency)``) and ``apply_after`` its ``planner.latency`` (:func:`simulated_timing`);
+            False: the two as given (0 and 0: MuJoCo MPC's loop).
         config: the resolved config, stored in the record.
         labels: names of the config choices for the record.
 
@@ -91,6 +118,9 @@ def run_online(
         with running:
             trial = build_trial(make_scene, seed, inputs, progress=False)
             scene = trial.scene
+            if simulated_timing:
+                min_interval, apply_after = timing_of(trial, min_interval, apply_after)
+            record["simulated_timing"] = bool(simulated_timing)
             loop = OnlineLoop(
                 trial,
                 slowdown,
