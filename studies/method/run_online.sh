@@ -11,6 +11,7 @@
 # takes its trial's control time x slowdown in wall time (39-69 s at slowdown 1). PACED=170 paces the planner
 # to a plan every 0.170 s of control time at most (job.min_interval; three digits, ms), the runs named _paced170;
 # HELD=170 holds each plan to act no sooner than 0.170 s of control time after its state (job.apply_after), _held170.
+# (EXTRA="job.simulated_timing=true" sets both from the preset instead: at the paper tasks' default, 0.170 and 0.170.)
 # SUFFIX=_again appends to the runs' names: a second set of runs beside the kept ones, not over them.
 # SEEDS="2 3 4" runs other seeds than 0 and 1 (with SLOWDOWNS=1: how often the method completes in real time).
 set -uo pipefail
