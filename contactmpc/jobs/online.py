@@ -26,13 +26,14 @@ from contactmpc.jobs.trial import summarize
 from contactmpc.online import OnlineLoop
 from contactmpc.records import RECORD_NAME, SERIES_NAME, RunningTrials, write_json, write_series
 from contactmpc.scene import Scene
+from contactmpc.trial import Trial
 from contactmpc.validate import ConfigError, Ge, Gt, checked
 from contactmpc.viewer import LiveViewer
 
 logger = logging.getLogger(__name__)
 
 
-def timing_of(trial, min_interval: float = 0.0, apply_after: float = 0.0) -> tuple[float, float]:
+def timing_of(trial: Trial, min_interval: float = 0.0, apply_after: float = 0.0) -> tuple[float, float]:
     """``(min_interval, apply_after)`` that run ``trial``'s simulated timing online: a plan started at
     most every replan interval of the trial (``max(planner.replan_period, planner.latency)``), each
     acting no sooner than its latency after its state.
@@ -101,7 +102,7 @@ def run_online(
             (:class:`~contactmpc.online.OnlineLoop`); False: the last plans, whatever they drew.
         simulated_timing: (not the paper's) run the simulated trial's timing where the machine plans
             within it: ``min_interval`` the trial's replan interval (``max(planner.replan_period,
-            planner.latency)``) and ``apply_after`` its ``planner.latency`` (:func:`simulated_timing`);
+            planner.latency)``) and ``apply_after`` its ``planner.latency`` (:func:`timing_of`);
             False: the two as given (0 and 0: MuJoCo MPC's loop).
         config: the resolved config, stored in the record.
         labels: names of the config choices for the record.
